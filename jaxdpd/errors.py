@@ -1,0 +1,26 @@
+"""Error flags raised inside jitted steps and the exceptions the driver turns them into.
+
+Flags are bits of an int32 in the state, OR-ed step by step; the driver reads them
+after each chunk.
+"""
+
+NEIGHBOR_OVERFLOW = 1
+NON_FINITE = 2
+
+MESSAGES = {
+    NEIGHBOR_OVERFLOW: "neighbour list overflow (buffers too small)",
+    NON_FINITE: (
+        "non-finite positions, velocities or forces: the integration became unstable; "
+        "the usual cause is a time step too large (reduce integrator.dt)"
+    ),
+}
+
+
+class SimulationError(RuntimeError):
+    """A run stopped because the state became invalid; a checkpoint was written."""
+
+
+def describe(flags: int) -> str:
+    """Human-readable list of the set flag bits."""
+    parts = [message for bit, message in MESSAGES.items() if flags & bit]
+    return "; ".join(parts) if parts else "no error"

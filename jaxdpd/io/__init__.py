@@ -1,0 +1,1 @@
+"""Output files: H5MD trajectories and observables, checkpoints."""

@@ -1,0 +1,1 @@
+"""Observables: per-step samples inside the scan, chunk-end samples outside it."""

@@ -1,0 +1,67 @@
+"""Radial distribution function g(r), sampled at chunk ends.
+
+    g(r_k) = h_k / [½ N (N − 1) V_k / V],
+
+with h_k the number of pairs whose minimum-image distance falls in shell k of volume
+V_k = (4π/3)(r_{k+1}³ − r_k³): an ideal gas gives g = 1 exactly in expectation.
+Pairs are found with the cell list (cut-off r_max, no skin), reallocated when a
+configuration needs more room.
+"""
+
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxdpd.neighbors import neighbor_search
+from jaxdpd.pairwise import pair_geometry
+
+
+class RadialDistribution:
+    """Accumulates pair-distance histograms over sampled configurations.
+
+    Args:
+        box: periodic box (r_max must be < half its shortest edge).
+        n_particles: N.
+        r_max: largest distance histogrammed.
+        bins: number of equal-width shells on [0, r_max).
+    """
+
+    def __init__(self, box, n_particles: int, r_max: float, bins: int):
+        self.box, self.n_particles, self.r_max, self.bins = box, n_particles, r_max, bins
+        self._search = neighbor_search(box, n_particles, r_max, 0.0)
+        self._pairs = None
+        self.counts = np.zeros(bins, np.int64)
+        self.samples = 0
+
+    @partial(jax.jit, static_argnums=0)
+    def _histogram(self, positions, pair_list):
+        pair_list = self._search.update(positions, pair_list)
+        geometry = pair_geometry(self.box, positions, pair_list, self.r_max, half=True)
+        shell = jnp.floor(geometry.distance * (self.bins / self.r_max)).astype(jnp.int32)
+        shell = jnp.where(geometry.within, shell, self.bins)
+        counts = jnp.zeros(self.bins + 1, jnp.int32).at[shell].add(1)[: self.bins]
+        return counts, pair_list
+
+    def sample(self, positions) -> None:
+        """Add one configuration (N, 3) to the histogram."""
+        if self._pairs is None:
+            self._pairs = self._search.allocate(positions, 1.5)
+        counts, pairs = self._histogram(positions, self._pairs)
+        if bool(pairs.overflow):
+            needs = (int(pairs.needed_pairs), int(pairs.needed_cell_occupancy))
+            self._pairs = self._search.allocate(positions, 1.5, minimum=needs)
+            counts, pairs = self._histogram(positions, self._pairs)
+        self.counts += np.asarray(counts)
+        self.samples += 1
+
+    def result(self):
+        """(shell centres r, g(r)) as NumPy arrays (NaN before any sample)."""
+        edges = np.linspace(0.0, self.r_max, self.bins + 1)
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        shell_volume = 4.0 / 3.0 * np.pi * (edges[1:] ** 3 - edges[:-1] ** 3)
+        n = self.n_particles
+        expected = 0.5 * n * (n - 1) * shell_volume / self.box.volume * self.samples
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return centres, self.counts / expected

@@ -1,0 +1,54 @@
+"""Kinetic temperature and the virial pressure tensor.
+
+    k_BT = Σ_i m v_i² / (3 (N − 1))          (3N − 3 degrees of freedom: the total
+                                              momentum is conserved)
+    P_ab = [Σ_i m v_ia v_ib + Σ_pairs (r_i − r_j)_a F_ij,b] / V
+
+(Irving–Kirkwood virial form, thesis eq. 2.12 generalised to the tensor, with every
+pair force, dissipative and random included.)
+"""
+
+import numpy as np
+
+
+def kinetic_tensor(velocities, mass=1.0):
+    """Σ_i m v_ia v_ib, (3, 3)."""
+    return mass * velocities.T @ velocities
+
+
+def temperature(kinetic, n_particles: int):
+    """k_BT from kinetic tensor(s) of shape (..., 3, 3)."""
+    trace = np.trace(np.asarray(kinetic), axis1=-2, axis2=-1)
+    return trace / (3 * (n_particles - 1))
+
+
+def pressure_tensor(kinetic, virial, volume: float):
+    """P_ab from kinetic and virial tensors of shape (..., 3, 3)."""
+    return (np.asarray(kinetic) + np.asarray(virial)) / volume
+
+
+def scalar_pressure(tensor):
+    """p = tr(P)/3."""
+    return np.trace(np.asarray(tensor), axis1=-2, axis2=-1) / 3
+
+
+def step_samples(observables, state):
+    """The per-step samples a scene asked for (traced, inside the scan)."""
+    samples = {}
+    if "temperature" in observables or "pressure" in observables:
+        samples["kinetic"] = kinetic_tensor(state.velocities)
+    if "pressure" in observables:
+        samples["virial"] = state.virial
+    return samples
+
+
+def reduce_samples(samples: dict, n_particles: int, volume: float) -> dict:
+    """Per-step kinetic/virial tensors → named time series (NumPy, host side)."""
+    series = {}
+    if "kinetic" in samples:
+        series["temperature"] = temperature(samples["kinetic"], n_particles)
+    if "virial" in samples:
+        tensor = pressure_tensor(samples["kinetic"], samples["virial"], volume)
+        series["pressure_tensor"] = tensor
+        series["pressure"] = scalar_pressure(tensor)
+    return series

@@ -1,0 +1,113 @@
+"""Pair geometry and accumulation of central pair quantities onto particles.
+
+Every pair law in jaxdpd (forces, thermostat forces, impulses) is central: it acts
+along the unit vector e_ij = (r_i − r_j)/r_ij with a scalar magnitude m_ij (positive
+= repulsive).  `pair_geometry` measures the pairs once; `accumulate` turns the
+magnitudes into per-particle vectors Σ_j m_ij e_ij and, on request, the virial
+Σ_pairs r_ij ⊗ m_ij e_ij.  Components are handled as separate arrays (structure of
+arrays), which XLA vectorises well on CPU.
+"""
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+
+
+@dataclass(frozen=True)
+class PairGeometry:
+    """Separations of the listed pairs (traced arrays, shape (P,) each).
+
+    Attributes:
+        i, j: particle indices (clipped to valid rows; use `within` to mask).
+        separation: (dx, dy, dz) of r_i − r_j, minimum image.
+        distance: |r_i − r_j| (1 where not within the cut-off).
+        inverse_distance: 1/distance.
+        within: bool, listed and closer than the cut-off.
+        weight: 1 − r/r_c within the cut-off, else 0 (the standard DPD weight).
+        n_particles: N.
+        half: True when each pair is listed once.
+    """
+
+    i: jnp.ndarray
+    j: jnp.ndarray
+    separation: tuple
+    distance: jnp.ndarray
+    inverse_distance: jnp.ndarray
+    within: jnp.ndarray
+    weight: jnp.ndarray
+    n_particles: int
+    half: bool
+
+    def along_pair(self, per_particle):
+        """(x_i − x_j)·e_ij for a per-particle vector field x of shape (N, 3)."""
+        total = 0
+        for axis in range(3):
+            component = per_particle[:, axis]
+            total = total + (component[self.i] - component[self.j]) * self.separation[axis]
+        return total * self.inverse_distance
+
+    def gather_pair(self, table, per_particle):
+        """table[s_i, s_j] for per-particle integer labels s (e.g. species).
+
+        Args:
+            table: (S, S) array.
+            per_particle: (N,) int labels.
+        """
+        n_labels = table.shape[0]
+        return table.reshape(-1)[per_particle[self.i] * n_labels + per_particle[self.j]]
+
+
+def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairGeometry:
+    """Measure the pairs of `pair_list` in `box`.
+
+    Args:
+        box: a box with `minimum_image(separation, axis)`.
+        positions: (N, 3) wrapped positions.
+        pair_list: PairList with i, j (padded with N).
+        cutoff: r_c; pairs at r ≥ r_c get `within = False`.
+        half: whether the list holds each pair once.
+    """
+    n = positions.shape[0]
+    listed = pair_list.i < n
+    i = jnp.where(listed, pair_list.i, 0)
+    j = jnp.where(listed, pair_list.j, 0)
+    separation = tuple(
+        box.minimum_image(positions[:, axis][i] - positions[:, axis][j], axis) for axis in range(3)
+    )
+    distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
+    within = listed & (distance_sq < cutoff * cutoff) & (i != j)
+    safe_sq = jnp.where(within, distance_sq, jnp.ones_like(distance_sq))
+    inverse = jax.lax.rsqrt(safe_sq)
+    distance = safe_sq * inverse
+    weight = jnp.where(within, 1 - distance * (1.0 / cutoff), jnp.zeros_like(distance))
+    return PairGeometry(i, j, separation, distance, inverse, within, weight, n, half)
+
+
+def accumulate(geometry: PairGeometry, magnitude, with_virial: bool = False):
+    """Per-particle sums Σ_j m_ij e_ij and optionally the virial tensor.
+
+    Args:
+        geometry: from `pair_geometry`.
+        magnitude: (P,) magnitudes m_ij (must be 0 where not `within`).
+        with_virial: also return W_ab = Σ_pairs (r_i − r_j)_a m_ij e_ij,b.
+    Returns:
+        (N, 3) vectors, and the (3, 3) virial or None.
+    """
+    n = geometry.n_particles
+    scale = magnitude * geometry.inverse_distance
+    components = [scale * s for s in geometry.separation]
+    columns = []
+    for component in components:
+        total = jax.ops.segment_sum(component, geometry.i, n)
+        if geometry.half:
+            total = total - jax.ops.segment_sum(component, geometry.j, n)
+        columns.append(total)
+    vectors = jnp.stack(columns, axis=1)
+    if not with_virial:
+        return vectors, None
+    count = 1.0 if geometry.half else 0.5  # a full list sees every pair twice
+    virial = jnp.stack(
+        [jnp.stack([jnp.sum(sa * fb) for fb in components]) for sa in geometry.separation]
+    )
+    return vectors, virial * count

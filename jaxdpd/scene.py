@@ -1,0 +1,532 @@
+"""Scene: a declarative, validated description of a simulation.
+
+A scene is read from TOML (`Scene.from_toml`) or a dictionary (`Scene.from_dict`);
+`Scene.to_dict` gives back the complete, resolved description (defaults filled in),
+which is written into every output file and reloads to an equal scene.
+
+Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
+
+    seed        integer in [0, 2³²)                     noise and initial state
+    precision   "float32" | "float64"
+    cutoff      r_c > 0 of all pair interactions        default 1
+    [box]       kind = "periodic"; lengths = [Lx, Ly, Lz] (optional, see particles)
+    [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction}]
+                with box.lengths give one of density/count; without, give both
+                (cubic box of side (N/ρ)^(1/3))
+    [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
+                off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
+                method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
+    [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
+                {"A-B" = a_AB, ...} over species names (dpd only)
+    [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
+    [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
+                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
+    [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
+    [output]    path (H5MD file, optional); observables ⊂ {"temperature",
+                "pressure", "rdf"}; rdf_bins, rdf_max; trajectory_every (0 = never)
+"""
+
+import json
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field
+
+from jaxdpd.validation import (
+    check_keys,
+    read_choice,
+    read_list,
+    read_number,
+    read_string,
+)
+
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman")
+NOISE_LAWS = ("uniform", "gaussian")
+PRECISIONS = ("float32", "float64")
+NEIGHBOR_METHODS = ("cell_list", "jax_md")
+JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
+OBSERVABLES = ("temperature", "pressure", "rdf")
+
+
+@dataclass(frozen=True)
+class Species:
+    """A particle species and how many particles it has."""
+
+    name: str
+    count: int
+
+
+@dataclass(frozen=True)
+class Particles:
+    """Resolved particle numbers: total count, density and species."""
+
+    count: int
+    density: float
+    species: tuple[Species, ...]
+
+
+@dataclass(frozen=True)
+class Box:
+    """Periodic box with resolved edge lengths."""
+
+    kind: str
+    lengths: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Solvent:
+    """Solvent method and its parameters (unused ones stay at their defaults)."""
+
+    method: str
+    kT: float = 1.0
+    gamma: float = 4.5
+    noise: str = "uniform"
+    pi0: float = 1.0 / 3.0
+    omega: float = 4.0 / 3.0
+    delta_pi: float = 1.0 / 3.0
+
+    @property
+    def sigma(self) -> float:
+        """Random-force amplitude σ = √(2 γ k_BT) (thesis eq. 2.8)."""
+        return math.sqrt(2 * self.gamma * self.kT)
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Conservative pair force: soft repulsion with species matrix a (S×S)."""
+
+    kind: str
+    a: tuple[tuple[float, ...], ...]
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """Time step and the λ of the modified velocity-Verlet scheme (thesis eq. 2.10)."""
+
+    dt: float
+    lambda_: float = 0.5
+
+
+@dataclass(frozen=True)
+class Neighbors:
+    """Neighbour search settings."""
+
+    method: str = "cell_list"
+    format: str = "ordered_sparse"
+    skin: float = 0.0
+    capacity_multiplier: float = 1.25
+
+
+@dataclass(frozen=True)
+class Run:
+    """Run length and chunking (steps per jitted `lax.scan`)."""
+
+    steps: int = 1000
+    chunk: int = 100
+    equilibration: int = 0
+
+
+@dataclass(frozen=True)
+class Output:
+    """What is measured and where it is written."""
+
+    path: str | None = None
+    observables: tuple[str, ...] = ("temperature", "pressure")
+    rdf_bins: int = 100
+    rdf_max: float = 3.0
+    trajectory_every: int = 0
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete, validated simulation description (see the module docstring)."""
+
+    seed: int
+    precision: str
+    cutoff: float
+    box: Box
+    particles: Particles
+    solvent: Solvent
+    pair: Pair | None
+    integrator: Integrator
+    neighbors: Neighbors = field(default_factory=Neighbors)
+    run: Run = field(default_factory=Run)
+    output: Output = field(default_factory=Output)
+
+    # -- construction -------------------------------------------------------------
+    @classmethod
+    def from_toml(cls, path) -> "Scene":
+        """Read and validate a scene file."""
+        try:
+            with open(path, "rb") as handle:
+                data = tomllib.load(handle)
+        except tomllib.TOMLDecodeError as error:
+            raise ValueError(f"{path}: not valid TOML ({error})") from None
+        return cls.from_dict(data)
+
+    @classmethod
+    def from_toml_string(cls, text: str) -> "Scene":
+        """Validate a scene given as TOML text."""
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as error:
+            raise ValueError(f"scene: not valid TOML ({error})") from None
+        return cls.from_dict(data)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Scene":
+        """Validate a scene dictionary; errors name the field and the valid range."""
+        check_keys(
+            data,
+            (
+                "seed",
+                "precision",
+                "cutoff",
+                "box",
+                "particles",
+                "solvent",
+                "pair",
+                "integrator",
+                "neighbors",
+                "run",
+                "output",
+            ),
+            "scene",
+        )
+        seed = read_number(data, "seed", "", 0, minimum=0, maximum=2**32 - 1, integer=True)
+        precision = read_choice(data, "precision", "", PRECISIONS, "float32")
+        cutoff = read_number(data, "cutoff", "", 1.0, minimum=0, exclusive_minimum=True)
+        if "solvent" not in data:
+            raise ValueError(f"solvent: required section is missing; method: {SOLVENT_METHODS}")
+        solvent = _read_solvent(data["solvent"])
+        neighbors = _read_neighbors(data.get("neighbors", {}))
+        box_section = data.get("box", {})
+        check_keys(box_section, ("kind", "lengths"), "box")
+        box_kind = read_choice(box_section, "kind", "box", ("periodic",), "periodic")
+        lengths = _read_lengths(box_section)
+        particles, lengths = _read_particles(data.get("particles"), lengths)
+        list_cutoff = cutoff + neighbors.skin
+        for axis, length in zip("xyz", lengths, strict=True):
+            if not length > 2 * list_cutoff:
+                raise ValueError(
+                    f"box.lengths: L_{axis} = {length:.4g} must exceed 2 (cutoff + "
+                    f"neighbors.skin) = {2 * list_cutoff:.4g}; enlarge the box or add particles"
+                )
+        pair = _read_pair(data.get("pair"), solvent, particles.species)
+        integrator = _read_integrator(data.get("integrator"), solvent)
+        run = _read_run(data.get("run", {}))
+        return cls(
+            seed=seed,
+            precision=precision,
+            cutoff=cutoff,
+            box=Box(box_kind, lengths),
+            particles=particles,
+            solvent=solvent,
+            pair=pair,
+            integrator=integrator,
+            neighbors=neighbors,
+            run=run,
+            output=_read_output(data.get("output", {}), lengths, run.chunk),
+        )
+
+    # -- derived quantities --------------------------------------------------------
+    @property
+    def n_particles(self) -> int:
+        """Total number of particles N."""
+        return self.particles.count
+
+    @property
+    def volume(self) -> float:
+        """Box volume."""
+        return math.prod(self.box.lengths)
+
+    @property
+    def species_names(self) -> tuple[str, ...]:
+        """Species names in index order."""
+        return tuple(s.name for s in self.particles.species)
+
+    def to_dict(self) -> dict:
+        """The full resolved scene as plain data; `from_dict` reloads it unchanged."""
+        data = asdict(self)
+        data["integrator"]["lambda"] = data["integrator"].pop("lambda_")
+        data["box"]["lengths"] = list(self.box.lengths)
+        data["particles"] = {
+            "count": self.particles.count,
+            "species": [{"name": s.name, "count": s.count} for s in self.particles.species],
+        }
+        data["solvent"] = _solvent_dict(self.solvent)
+        if self.pair is None:
+            del data["pair"]
+        else:
+            data["pair"] = {"kind": self.pair.kind, "a": [list(row) for row in self.pair.a]}
+        if self.neighbors.method != "jax_md":
+            del data["neighbors"]["format"]
+        data["output"]["observables"] = list(self.output.observables)
+        if self.output.path is None:
+            del data["output"]["path"]
+        return data
+
+    def to_json(self) -> str:
+        """`to_dict` as JSON text (stored in output files)."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    def replace(self, **sections) -> "Scene":
+        """A copy with whole sections or fields replaced, validated again.
+
+        Example: `scene.replace(integrator={"dt": 0.02})` merges into the section.
+        """
+        data = self.to_dict()
+        for name, value in sections.items():
+            if isinstance(value, dict) and isinstance(data.get(name), dict):
+                data[name] = {**data[name], **value}
+            else:
+                data[name] = value
+        return Scene.from_dict(data)
+
+
+def _solvent_dict(solvent: Solvent) -> dict:
+    if solvent.method == "dpd":
+        return {
+            "method": "dpd",
+            "kT": solvent.kT,
+            "gamma": solvent.gamma,
+            "noise": solvent.noise,
+        }
+    return {
+        "method": solvent.method,
+        "pi0": solvent.pi0,
+        "omega": solvent.omega,
+        "delta_pi": solvent.delta_pi,
+    }
+
+
+def _read_solvent(section) -> Solvent:
+    check_keys(
+        section,
+        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi"),
+        "solvent",
+    )
+    method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
+    if method == "dpd":
+        misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
+        if misplaced:
+            raise ValueError(f"solvent: {misplaced} belong to method 'hoogerbrugge_koelman'")
+        kT = read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True)
+        gamma = read_number(section, "gamma", "solvent", 4.5, minimum=0)
+        if "sigma" in section:
+            sigma = read_number(section, "sigma", "solvent", minimum=0)
+            expected = math.sqrt(2 * gamma * kT)
+            if not math.isclose(sigma, expected, rel_tol=1e-9, abs_tol=1e-12):
+                raise ValueError(
+                    f"solvent.sigma = {sigma!r}: fluctuation–dissipation requires "
+                    f"σ = √(2 γ kT) = {expected:.6g}; give gamma (and kT) only, or a "
+                    "consistent sigma"
+                )
+        noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
+        return Solvent(method, kT=kT, gamma=gamma, noise=noise)
+    misplaced = sorted({"kT", "gamma", "sigma", "noise"} & set(section))
+    if misplaced:
+        raise ValueError(f"solvent: {misplaced} belong to method 'dpd', not {method!r}")
+    return Solvent(
+        method,
+        pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
+        omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
+        delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
+    )
+
+
+def _read_neighbors(section) -> Neighbors:
+    check_keys(section, ("method", "format", "skin", "capacity_multiplier"), "neighbors")
+    method = read_choice(section, "method", "neighbors", NEIGHBOR_METHODS, "cell_list")
+    if method == "cell_list" and "format" in section:
+        raise ValueError("neighbors.format: only used with neighbors.method = 'jax_md'")
+    return Neighbors(
+        method=method,
+        format=read_choice(section, "format", "neighbors", JAX_MD_FORMATS, "ordered_sparse"),
+        skin=read_number(section, "skin", "neighbors", 0.0, minimum=0),
+        capacity_multiplier=read_number(
+            section, "capacity_multiplier", "neighbors", 1.25, minimum=1.0
+        ),
+    )
+
+
+def _read_lengths(box_section):
+    if "lengths" not in box_section:
+        return None
+    lengths = read_list(box_section, "lengths", "box")
+    if len(lengths) != 3:
+        raise ValueError(f"box.lengths: expected 3 edge lengths [Lx, Ly, Lz], got {lengths!r}")
+    return tuple(
+        read_number({"lengths": v}, "lengths", "box", minimum=0, exclusive_minimum=True)
+        for v in lengths
+    )
+
+
+def _read_particles(section, lengths):
+    if section is None:
+        raise ValueError("particles: required section is missing (give density and/or count)")
+    check_keys(section, ("density", "count", "species"), "particles")
+    density = count = None
+    if "density" in section:
+        density = read_number(section, "density", "particles", minimum=0, exclusive_minimum=True)
+    if "count" in section:
+        count = read_number(section, "count", "particles", minimum=2, integer=True)
+    if lengths is not None:
+        volume = math.prod(lengths)
+        if (density is None) == (count is None):
+            raise ValueError(
+                "particles: with box.lengths given, give exactly one of particles.density "
+                "and particles.count"
+            )
+        if count is None:
+            count = round(density * volume)
+            if count < 2:
+                raise ValueError(
+                    f"particles.density = {density}: the box holds {count} particles; need ≥ 2"
+                )
+        density = count / volume
+    else:
+        if density is None or count is None:
+            raise ValueError(
+                "particles: without box.lengths give both particles.density and "
+                "particles.count (the box is then cubic)"
+            )
+        side = (count / density) ** (1.0 / 3.0)
+        lengths = (side, side, side)
+        density = count / math.prod(lengths)
+    species = _read_species(section.get("species", [{"name": "solvent"}]), count)
+    return Particles(count=count, density=density, species=species), lengths
+
+
+def _read_species(entries, total: int) -> tuple[Species, ...]:
+    if not isinstance(entries, list) or not entries:
+        raise TypeError("particles.species: expected a non-empty list of {name, count|fraction}")
+    names, counts, fractions = [], [], []
+    for k, entry in enumerate(entries):
+        path = f"particles.species[{k}]"
+        check_keys(entry, ("name", "count", "fraction"), path)
+        name = read_string(entry, "name", path)
+        if name in names:
+            raise ValueError(f"{path}.name = {name!r}: species names must be unique")
+        if "count" in entry and "fraction" in entry:
+            raise ValueError(f"{path}: give count or fraction, not both")
+        names.append(name)
+        counts.append(read_number(entry, "count", path, None, minimum=0, integer=True))
+        fractions.append(read_number(entry, "fraction", path, None, minimum=0, maximum=1))
+    if len(entries) == 1 and counts[0] is None and fractions[0] is None:
+        return (Species(names[0], total),)
+    if all(c is not None for c in counts):
+        if sum(counts) != total:
+            raise ValueError(
+                f"particles.species: counts sum to {sum(counts)}, particles.count is {total}"
+            )
+        return tuple(Species(n, c) for n, c in zip(names, counts, strict=True))
+    if all(f is not None for f in fractions):
+        if not math.isclose(sum(fractions), 1.0, abs_tol=1e-9):
+            raise ValueError(f"particles.species: fractions sum to {sum(fractions)}, must be 1")
+        resolved = [round(f * total) for f in fractions[:-1]]
+        resolved.append(total - sum(resolved))
+        return tuple(Species(n, c) for n, c in zip(names, resolved, strict=True))
+    raise ValueError("particles.species: give every species a count, or every one a fraction")
+
+
+def _read_pair(section, solvent: Solvent, species) -> Pair | None:
+    if section is None:
+        return None
+    if solvent.method == "hoogerbrugge_koelman":
+        raise ValueError(
+            "pair: the Hoogerbrugge–Koelman update carries its own conservative part "
+            "(solvent.pi0); remove the [pair] section"
+        )
+    check_keys(section, ("kind", "a"), "pair")
+    kind = read_choice(section, "kind", "pair", ("soft_repulsion",), "soft_repulsion")
+    names = [s.name for s in species]
+    n = len(names)
+    if "a" not in section:
+        raise ValueError("pair.a: required field is missing (number, S×S list or species table)")
+    a = section["a"]
+    if isinstance(a, (int, float)) and not isinstance(a, bool):
+        value = read_number(section, "a", "pair")
+        matrix = [[value] * n for _ in range(n)]
+    elif isinstance(a, dict):
+        matrix = [[None] * n for _ in range(n)]
+        for key in a:
+            parts = key.split("-")
+            if len(parts) != 2:
+                raise ValueError(f"pair.a: key {key!r} must be 'A-B' with two species names")
+            for part in parts:
+                if part not in names:
+                    raise ValueError(f"pair.a: unknown species {part!r}; species are {names}")
+            p, q = names.index(parts[0]), names.index(parts[1])
+            number = read_number(a, key, "pair.a")
+            for x, y in ((p, q), (q, p)):
+                if matrix[x][y] is not None and matrix[x][y] != number:
+                    raise ValueError(f"pair.a: {key!r} given twice with different values")
+                matrix[x][y] = number
+        missing = [
+            f"{names[p]}-{names[q]}" for p in range(n) for q in range(p, n) if matrix[p][q] is None
+        ]
+        if missing:
+            raise ValueError(f"pair.a: missing entries {missing}")
+    elif isinstance(a, list):
+        if len(a) != n or any(not isinstance(row, list) or len(row) != n for row in a):
+            raise ValueError(f"pair.a: expected a {n}×{n} matrix (species {names}), got {a!r}")
+        matrix = [[read_number({"a": v}, "a", "pair") for v in row] for row in a]
+        for p in range(n):
+            for q in range(p + 1, n):
+                if matrix[p][q] != matrix[q][p]:
+                    raise ValueError(
+                        f"pair.a: must be symmetric; a[{p}][{q}] = {matrix[p][q]} but "
+                        f"a[{q}][{p}] = {matrix[q][p]}"
+                    )
+    else:
+        raise TypeError(f"pair.a: expected a number, list or table, got {type(a).__name__}")
+    return Pair(kind, tuple(tuple(row) for row in matrix))
+
+
+def _read_integrator(section, solvent: Solvent) -> Integrator:
+    section = section if section is not None else {}
+    check_keys(section, ("dt", "lambda"), "integrator")
+    default_dt = 1.0 if solvent.method == "hoogerbrugge_koelman" else 0.04
+    dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
+    lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
+    return Integrator(dt=dt, lambda_=lam)
+
+
+def _read_run(section) -> Run:
+    check_keys(section, ("steps", "chunk", "equilibration"), "run")
+    return Run(
+        steps=read_number(section, "steps", "run", 1000, minimum=0, integer=True),
+        chunk=read_number(section, "chunk", "run", 100, minimum=1, integer=True),
+        equilibration=read_number(section, "equilibration", "run", 0, minimum=0, integer=True),
+    )
+
+
+def _read_output(section, lengths, chunk: int) -> Output:
+    check_keys(
+        section, ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every"), "output"
+    )
+    observables = read_list(section, "observables", "output", ["temperature", "pressure"])
+    for name in observables:
+        if name not in OBSERVABLES:
+            raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")
+    rdf_max = read_number(section, "rdf_max", "output", 3.0, minimum=0, exclusive_minimum=True)
+    trajectory_every = read_number(
+        section, "trajectory_every", "output", 0, minimum=0, integer=True
+    )
+    if trajectory_every % chunk:
+        raise ValueError(
+            f"output.trajectory_every = {trajectory_every}: frames are written at chunk ends, "
+            f"so it must be a multiple of run.chunk = {chunk} (or 0 for no frames)"
+        )
+    if "rdf" in observables and not rdf_max < min(lengths) / 2:
+        raise ValueError(
+            f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
+            f"({min(lengths) / 2:.4g})"
+        )
+    return Output(
+        path=read_string(section, "path", "output", None),
+        observables=tuple(dict.fromkeys(observables)),
+        rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
+        rdf_max=rdf_max,
+        trajectory_every=trajectory_every,
+    )

@@ -1,0 +1,1 @@
+"""Embedded scenes (TOML) shipped with the package."""

@@ -1,0 +1,39 @@
+"""The simulation state: a pytree that a step function maps to its successor."""
+
+import jax.numpy as jnp
+from jax_md import dataclasses as jmd_dataclasses
+
+from jaxdpd.neighbors import PairList
+
+
+@jmd_dataclasses.dataclass
+class SimState:
+    """Everything a step needs, and nothing module-level.
+
+    Attributes:
+        positions: (N, 3) wrapped into the box.
+        velocities: (N, 3).
+        forces: (N, 3) forces at the current positions (velocity-Verlet scheme);
+            zeros for solvents that have no force (Hoogerbrugge–Koelman).
+        image: (N, 3) int32 periodic image counters (unwrapped = r + image · L).
+        species: (N,) int32 species index.
+        pair_list: neighbour pairs.
+        virial: (3, 3) virial Σ r_ij ⊗ F_ij of the last step's pair forces
+            (zeros unless the scene asks for the pressure).
+        step: int32 step counter (also the counter of the pair noise).
+        time: simulated time.
+        seed: uint32 seed of the counter-based noise.
+        flags: int32 error bits (see jaxdpd.errors).
+    """
+
+    positions: jnp.ndarray
+    velocities: jnp.ndarray
+    forces: jnp.ndarray
+    image: jnp.ndarray
+    species: jnp.ndarray
+    pair_list: PairList
+    virial: jnp.ndarray
+    step: jnp.ndarray
+    time: jnp.ndarray
+    seed: jnp.ndarray
+    flags: jnp.ndarray

@@ -1,0 +1,1 @@
+"""Thermostats and solvent momentum-exchange rules."""

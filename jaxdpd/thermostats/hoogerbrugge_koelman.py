@@ -1,0 +1,38 @@
+"""The original DPD update of Hoogerbrugge and Koelman (Europhys. Lett. 19, 155 (1992)).
+
+One step is a collision followed by free propagation over δt:
+    p_i ← p_i + Σ_j Ω_ij e_ij,
+    Ω_ij = W(r_ij) [Π0 + δΠ_ij − ω (p_i − p_j)·e_ij],
+    W(r) = 3 (1 − r/r_c) / (π n r_c³)   for r < r_c (normalised: n ∫ W d³r = 1),
+    r_i ← r_i + p_i δt / m,
+with e_ij the unit vector from j to i, n the number density and δΠ_ij uniform on
+[−Δ, Δ] and symmetric in (i, j).  Defaults Π0 = 1/3, ω = 4/3, Δ = 1/3, δt = 1.
+"""
+
+import jax.numpy as jnp
+
+from jaxdpd import noise
+
+
+def collision_weight(weight, density, cutoff):
+    """W(r) = 3 (1 − r/r_c) / (π n r_c³), given the DPD weight 1 − r/r_c."""
+    return 3 * weight / (jnp.pi * density * cutoff**3)
+
+
+def collision_magnitude(w, relative_normal_momentum, delta_pi, pi0, omega):
+    """Scalar law Ω_ij = W [Π0 + δΠ_ij − ω (p_i − p_j)·e_ij]."""
+    return w * (pi0 + delta_pi - omega * relative_normal_momentum)
+
+
+def hoogerbrugge_koelman_term(density, cutoff, pi0, omega, delta_pi_half_width, mass, dtype):
+    """Impulse term Ω_ij for the composed step (context.velocities, context.key)."""
+    pi0_, omega_ = jnp.asarray(pi0, dtype), jnp.asarray(omega, dtype)
+    width = jnp.asarray(delta_pi_half_width, dtype)
+
+    def term(geometry, context):
+        delta_pi = noise.pair_uniform(context.key, geometry.i, geometry.j, -width, width, dtype)
+        momentum = geometry.along_pair(context.velocities) * mass
+        w = collision_weight(geometry.weight, density, cutoff)
+        return collision_magnitude(w, momentum, delta_pi, pi0_, omega_)
+
+    return term

@@ -1,0 +1,99 @@
+"""Checks that turn bad scene input into errors naming the field and what is valid.
+
+Each reader takes the section dictionary, the key and the dotted path of the
+section, and raises `TypeError` for a wrong type and `ValueError` for a value out of
+range, before anything is traced.
+"""
+
+import math
+
+_MISSING = object()
+
+
+def check_keys(section: dict, allowed, path: str) -> None:
+    """Refuse keys that the section does not know."""
+    if not isinstance(section, dict):
+        raise TypeError(f"{path}: expected a table (dict), got {type(section).__name__}")
+    unknown = sorted(set(section) - set(allowed))
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {unknown}; valid keys: {sorted(allowed)}")
+
+
+def _field(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def read_number(
+    section: dict,
+    key: str,
+    path: str,
+    default=_MISSING,
+    *,
+    minimum=None,
+    maximum=None,
+    exclusive_minimum=False,
+    integer=False,
+):
+    """A real (or integer) field within [minimum, maximum] (minimum exclusive on request)."""
+    name = _field(path, key)
+    if key not in section:
+        if default is _MISSING:
+            raise ValueError(f"{name}: required field is missing")
+        return default
+    value = section[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        kind = "an integer" if integer else "a number"
+        raise TypeError(f"{name}: expected {kind}, got {type(value).__name__} {value!r}")
+    if integer and not isinstance(value, int):
+        raise TypeError(f"{name}: expected an integer, got {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"{name}: must be finite, got {value!r}")
+    if minimum is not None:
+        if exclusive_minimum and not value > minimum:
+            raise ValueError(f"{name} = {value!r}: must be > {minimum}")
+        if not exclusive_minimum and not value >= minimum:
+            raise ValueError(f"{name} = {value!r}: must be ≥ {minimum}")
+    if maximum is not None and not value <= maximum:
+        raise ValueError(f"{name} = {value!r}: must be ≤ {maximum}")
+    return int(value) if integer else float(value)
+
+
+def read_choice(section: dict, key: str, path: str, choices, default=_MISSING):
+    """A string field taking one of `choices`."""
+    name = _field(path, key)
+    if key not in section:
+        if default is _MISSING:
+            raise ValueError(f"{name}: required field is missing; valid: {list(choices)}")
+        return default
+    value = section[key]
+    if not isinstance(value, str):
+        raise TypeError(f"{name}: expected a string, got {type(value).__name__} {value!r}")
+    if value not in choices:
+        raise ValueError(f"{name} = {value!r}: valid values are {list(choices)}")
+    return value
+
+
+def read_string(section: dict, key: str, path: str, default=_MISSING):
+    """A free string field."""
+    name = _field(path, key)
+    if key not in section:
+        if default is _MISSING:
+            raise ValueError(f"{name}: required field is missing")
+        return default
+    value = section[key]
+    if not isinstance(value, str) or not value:
+        raise TypeError(f"{name}: expected a non-empty string, got {value!r}")
+    return value
+
+
+def read_list(section: dict, key: str, path: str, default=_MISSING):
+    """A list field (element checks are the caller's)."""
+    name = _field(path, key)
+    if key not in section:
+        if default is _MISSING:
+            raise ValueError(f"{name}: required field is missing")
+        return default
+    value = section[key]
+    if not isinstance(value, (list, tuple)):
+        raise TypeError(f"{name}: expected a list, got {type(value).__name__} {value!r}")
+    return list(value)
