@@ -6,12 +6,21 @@ after each chunk.
 
 NEIGHBOR_OVERFLOW = 1
 NON_FINITE = 2
+TEMPERATURE_RUNAWAY = 4
+
+# A kinetic temperature this many times the set value means the integration is
+# unstable (thermostatted DPD stays within a few per cent of it).
+RUNAWAY_FACTOR = 100.0
 
 MESSAGES = {
     NEIGHBOR_OVERFLOW: "neighbour list overflow (buffers too small)",
     NON_FINITE: (
         "non-finite positions, velocities or forces: the integration became unstable; "
         "the usual cause is a time step too large (reduce integrator.dt)"
+    ),
+    TEMPERATURE_RUNAWAY: (
+        f"kinetic temperature above {RUNAWAY_FACTOR:g}× its set value: the integration is "
+        "unstable; the usual cause is a time step too large (reduce integrator.dt)"
     ),
 }
 

@@ -10,14 +10,25 @@ import jax.numpy as jnp
 from jaxdpd import errors
 
 
-def _flag(state, positions, velocities, pair_list):
-    """OR the error bits of this step into the state's flags."""
-    finite = jnp.isfinite(jnp.sum(positions) + jnp.sum(velocities))
-    flags = state.flags | jnp.where(finite, 0, errors.NON_FINITE)
-    return flags | jnp.where(pair_list.overflow, errors.NEIGHBOR_OVERFLOW, 0).astype(jnp.int32)
+def _flag(state, positions, velocities, pair_list, kT):
+    """OR the error bits of this step into the state's flags.
+
+    Args:
+        kT: the set temperature (unit masses); a mean v² above
+            RUNAWAY_FACTOR · 3 kT flags a runaway.
+    """
+    twice_kinetic = jnp.sum(velocities * velocities)
+    finite = jnp.isfinite(jnp.sum(positions) + twice_kinetic)
+    runaway = twice_kinetic > errors.RUNAWAY_FACTOR * 3 * kT * velocities.shape[0]
+    bits = (
+        jnp.where(finite, 0, errors.NON_FINITE)
+        | jnp.where(runaway, errors.TEMPERATURE_RUNAWAY, 0)
+        | jnp.where(pair_list.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+    )
+    return state.flags | bits.astype(jnp.int32)
 
 
-def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, dtype):
+def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, kT: float, dtype):
     """Groot–Warren modified velocity Verlet (thesis eq. 2.10), unit masses:
 
         r(t+Δt) = r + Δt v + ½ Δt² f(t)
@@ -26,7 +37,8 @@ def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, dtype
         v(t+Δt) = v + ½ Δt [f(t) + f(t+Δt)]
 
     λ = ½ is the usual velocity Verlet; Groot and Warren found λ ≈ 0.65 best for
-    DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.
+    DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.  `kT` is the
+    temperature scale of the runaway check (see jaxdpd.errors).
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
@@ -45,13 +57,13 @@ def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, dtype
             pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list),
+            flags=_flag(state, positions, velocities, pair_list, kT),
         )
 
     return step
 
 
-def collide_and_stream(box, dt: float, interactions, dtype):
+def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
     """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
 
         v_i ← v_i + Σ_j Ω_ij e_ij,     r_i ← r_i + v_i δt.
@@ -73,7 +85,7 @@ def collide_and_stream(box, dt: float, interactions, dtype):
             virial=virial / dt_,
             step=state.step + 1,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list),
+            flags=_flag(state, positions, velocities, pair_list, kT),
         )
 
     return step

@@ -5,6 +5,7 @@ conservative force, with γ = 0 no dissipative or random force, without "pressur
 no virial, and with no pair term at all no neighbour search.
 """
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -84,8 +85,12 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
+@functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
-    """Compose the scene's simulation (see the module docstring)."""
+    """Compose the scene's simulation (see the module docstring).
+
+    Cached per scene, so building an equal scene again reuses the compiled chunks.
+    """
     dtype = jnp.dtype(scene.precision)
     box = PeriodicBox(tuple(scene.box.lengths))
     n = scene.n_particles
@@ -118,10 +123,15 @@ def build(scene: Scene) -> Simulation:
         return vectors, virial, pair_list
 
     if scene.solvent.method == "hoogerbrugge_koelman":
-        advance = collide_and_stream(box, scene.integrator.dt, interactions, dtype)
+        advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
     else:
         advance = modified_velocity_verlet(
-            box, scene.integrator.dt, scene.integrator.lambda_, interactions, dtype
+            box,
+            scene.integrator.dt,
+            scene.integrator.lambda_,
+            interactions,
+            scene.solvent.kT,
+            dtype,
         )
 
     observables = scene.output.observables

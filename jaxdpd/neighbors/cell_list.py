@@ -14,7 +14,6 @@ requires L > 2 (r_c + skin).
 
 import itertools
 import math
-from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -46,7 +45,8 @@ def forward_neighbor_cells(n_cells: tuple[int, int, int]) -> tuple[np.ndarray, n
             to a neighbour's coordinate when the offset crosses the boundary.
     """
     choices = [(-1, 0, 1) if n >= 3 else (0,) for n in n_cells]
-    offsets = np.array([o for o in itertools.product(*choices) if o > (0, 0, 0)], np.int64)
+    offsets = [o for o in itertools.product(*choices) if o > (0, 0, 0)]
+    offsets = np.array(offsets, np.int64).reshape(-1, 3)
     grid = np.stack(np.meshgrid(*[np.arange(n) for n in n_cells], indexing="ij"), axis=-1).reshape(
         -1, 3
     )
@@ -65,15 +65,16 @@ def _lower_bound(values_at, length: int, targets):
     Branch-free binary search with a fixed number of halvings, vectorised over
     `targets`; `values_at(k)` gathers the values at index array k.
     """
-    lo = jnp.zeros_like(targets)
-    hi = jnp.full_like(targets, length)
-    for _ in range(max(1, math.ceil(math.log2(length + 1)))):
+
+    def halve(_, bounds):
+        lo, hi = bounds
         mid = (lo + hi) // 2
-        below = values_at(jnp.minimum(mid, length - 1)) < targets
-        below = below & (mid < length)
-        lo = jnp.where(below, mid + 1, lo)
-        hi = jnp.where(below, hi, mid)
-    return lo
+        below = (values_at(jnp.minimum(mid, length - 1)) < targets) & (mid < length)
+        return jnp.where(below, mid + 1, lo), jnp.where(below, hi, mid)
+
+    bounds = (jnp.zeros_like(targets), jnp.full_like(targets, length))
+    iterations = max(1, math.ceil(math.log2(length + 1)))
+    return jax.lax.fori_loop(0, iterations, halve, bounds)[0]
 
 
 def _cell_ids(positions, cell_size, n_cells):
@@ -231,17 +232,17 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
 
     @jax.jit
     def fullest_cell(positions):
+        """Occupancy of the fullest cell (sizes the cell buffers)."""
         ids = _cell_ids(positions, cell_size, n_cells)
         return jnp.max(jnp.zeros(math.prod(n_cells), jnp.int32).at[ids].add(1))
 
-    @partial(jax.jit, static_argnums=1)
-    def count(positions, cell_capacity):
-        _, accepted, max_occupancy = mask(positions, cell_capacity)
-        pairs = jnp.sum(jax.lax.population_count(accepted), dtype=jnp.int32)
-        return pairs, max_occupancy
+    build_jit = jax.jit(build, static_argnums=(1, 2))
 
     def allocate(positions, capacity_multiplier: float = 1.25, minimum=None) -> PairList:
         """Size the buffers for `positions` (outside jit), then build the list.
+
+        The pair buffer starts from the ideal-gas estimate ½N(N−1)·(4π/3)r_list³/V
+        and is re-sized once if the configuration holds more pairs.
 
         Args:
             positions: (N, 3) wrapped positions.
@@ -252,10 +253,15 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
         min_pairs, min_occupancy = minimum or (0, 0)
         occupancy = max(int(fullest_cell(positions)), int(min_occupancy))
         cell_capacity = occupancy + max(3, math.ceil(0.2 * occupancy))
-        pairs, _ = count(positions, cell_capacity)
-        pairs = max(int(pairs), int(min_pairs))
-        pair_capacity = max(16, math.ceil(pairs * capacity_multiplier))
-        return jax.jit(build, static_argnums=(1, 2))(positions, cell_capacity, pair_capacity)
+        ideal = 0.5 * n_particles * (n_particles - 1) * 4 / 3 * math.pi * list_cutoff**3
+        pairs = max(ideal / box.volume, int(min_pairs))
+        pair_list = build_jit(
+            positions, cell_capacity, max(16, math.ceil(pairs * capacity_multiplier))
+        )
+        if int(pair_list.needed_pairs) > pair_list.capacity:
+            needed = math.ceil(int(pair_list.needed_pairs) * capacity_multiplier)
+            pair_list = build_jit(positions, cell_capacity, needed)
+        return pair_list
 
     def update(positions, pair_list: PairList) -> PairList:
         def rebuild(old):

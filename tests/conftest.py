@@ -1,0 +1,42 @@
+"""Shared helpers: small scenes for fast tests."""
+
+import copy
+
+import pytest
+
+import jaxdpd  # noqa: F401  (enables x64 before any array is created)
+from jaxdpd.scene import Scene
+
+BASE_SCENE = {
+    "seed": 7,
+    "precision": "float64",
+    "particles": {"density": 3.0, "count": 600},
+    "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
+    "pair": {"a": 25.0},
+    "integrator": {"dt": 0.04, "lambda": 0.5},
+    "run": {"steps": 100, "chunk": 50},
+    "output": {"observables": ["temperature", "pressure"]},
+}
+
+
+def scene_dict(**sections) -> dict:
+    """BASE_SCENE with sections merged (a value of None removes the section)."""
+    data = copy.deepcopy(BASE_SCENE)
+    for name, value in sections.items():
+        if value is None:
+            data.pop(name, None)
+        elif isinstance(value, dict) and isinstance(data.get(name), dict):
+            data[name] = {**data[name], **value}
+        else:
+            data[name] = value
+    return data
+
+
+def make_scene(**sections) -> Scene:
+    """A validated small scene (600 particles, ρ = 3, float64 unless overridden)."""
+    return Scene.from_dict(scene_dict(**sections))
+
+
+@pytest.fixture
+def small_scene():
+    return make_scene()

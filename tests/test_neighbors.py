@@ -1,0 +1,138 @@
+"""Neighbour lists against a brute-force O(N²) minimum-image search."""
+
+import itertools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdpd.boxes import PeriodicBox
+from jaxdpd.neighbors import neighbor_search
+from jaxdpd.pairwise import pair_geometry
+
+
+def brute_force_pairs(positions, lengths, cutoff):
+    """All pairs i < j with minimum-image distance < cutoff, and their separations.
+
+    The minimum image is found by searching all 27 images explicitly (not by
+    rounding), so it is an independent reference.
+
+    Returns:
+        dict (i, j) -> separation r_i − r_j of the nearest image.
+    """
+    positions = np.asarray(positions, np.float64)
+    lengths = np.asarray(lengths, np.float64)
+    n = len(positions)
+    shifts = np.array(list(itertools.product((-1, 0, 1), repeat=3))) * lengths
+    found = {}
+    for start in range(0, n, 64):
+        rows = np.arange(start, min(n, start + 64))
+        d = positions[rows, None, :] - positions[None, :, :]  # (rows, n, 3)
+        images = d[:, :, None, :] + shifts  # (rows, n, 27, 3)
+        dist = np.linalg.norm(images, axis=-1)
+        best = dist.argmin(axis=-1)
+        r = np.take_along_axis(dist, best[..., None], -1)[..., 0]
+        a, b = np.nonzero((r < cutoff) & (rows[:, None] < np.arange(n)[None, :]))
+        vectors = images[a, b, best[a, b]]
+        found.update(zip(zip(rows[a].tolist(), b.tolist(), strict=True), vectors, strict=True))
+    return found
+
+
+def listed_pairs(pair_list, n):
+    i = np.asarray(pair_list.i)
+    j = np.asarray(pair_list.j)
+    keep = i < n
+    return {(min(a, b), max(a, b)) for a, b in zip(i[keep], j[keep], strict=True)}
+
+
+CONFIGURATIONS = [
+    # (lengths, N, cutoff, skin): cubic, elongated, single-cell axes, skin
+    ((8.0, 8.0, 8.0), 1536, 1.0, 0.0),
+    ((12.0, 5.0, 6.5), 1170, 1.0, 0.3),
+    ((2.5, 9.0, 2.8), 190, 1.0, 0.2),
+    ((7.0, 7.0, 7.0), 1029, 1.3, 0.5),
+]
+
+
+CASES = [(*configuration, "cell_list", None) for configuration in CONFIGURATIONS] + [
+    (*CONFIGURATIONS[1], "jax_md", fmt) for fmt in ("dense", "sparse", "ordered_sparse")
+]
+
+
+@pytest.mark.parametrize(("lengths", "n", "cutoff", "skin", "method", "fmt"), CASES)
+def test_pair_set_and_separations_match_brute_force(lengths, n, cutoff, skin, method, fmt):
+    rng = np.random.default_rng(n)
+    positions = rng.uniform(0, 1, (n, 3)) * np.asarray(lengths)
+    # Put some particles exactly on the faces and corners of the box.
+    positions[:8] = np.array(list(itertools.product((0.0, 1e-12), repeat=3))) * lengths
+    box = PeriodicBox(lengths)
+    search = neighbor_search(box, n, cutoff, skin, method, fmt or "ordered_sparse")
+    positions = jnp.asarray(positions, jnp.float64)
+    pair_list = search.allocate(positions)
+    assert not bool(pair_list.overflow)
+    reference = brute_force_pairs(positions, lengths, cutoff + skin)
+    assert listed_pairs(pair_list, n) == set(reference)
+    if not search.half:
+        i, j = np.asarray(pair_list.i), np.asarray(pair_list.j)
+        listed = i < n
+        assert listed.sum() == 2 * len(reference)
+    # Separations measured by the pair kernel equal the brute-force minimum images.
+    geometry = pair_geometry(box, positions, pair_list, cutoff + skin, search.half)
+    i, j = np.asarray(geometry.i), np.asarray(geometry.j)
+    within = np.asarray(geometry.within)
+    separation = np.stack([np.asarray(s) for s in geometry.separation], axis=1)
+    expected = np.array(
+        [
+            reference[(a, b)] if a < b else -reference[(b, a)]
+            for a, b in zip(i[within].tolist(), j[within].tolist(), strict=True)
+        ]
+    )
+    np.testing.assert_allclose(separation[within], expected, atol=1e-12)
+
+
+def test_skin_rebuilds_only_when_a_particle_moved_half_the_skin():
+    lengths = (6.0, 6.0, 6.0)
+    n = 648
+    box = PeriodicBox(lengths)
+    search = neighbor_search(box, n, 1.0, 0.4)
+    rng = np.random.default_rng(1)
+    positions = jnp.asarray(rng.uniform(0, 6.0, (n, 3)))
+    pair_list = search.allocate(positions)
+    update = jax.jit(search.update)
+    nudged = positions.at[0, 0].add(0.19)  # < skin/2: keep the list
+    assert int(update(nudged, pair_list).rebuilds) == 0
+    moved = positions.at[0, 0].add(0.21)  # > skin/2: rebuild
+    rebuilt = update(moved, pair_list)
+    assert int(rebuilt.rebuilds) == 1
+    assert listed_pairs(rebuilt, n) == set(brute_force_pairs(moved, lengths, 1.4))
+    # Displacements across the periodic boundary count by their minimum image.
+    wrapped = positions.at[0, 0].set(jnp.mod(positions[0, 0] + 5.9, 6.0))
+    assert int(update(wrapped, pair_list).rebuilds) == 0
+
+
+def test_overflow_is_flagged_and_needs_are_recorded():
+    lengths = (6.0, 6.0, 6.0)
+    n = 648
+    box = PeriodicBox(lengths)
+    search = neighbor_search(box, n, 1.0, 0.0)
+    rng = np.random.default_rng(2)
+    sparse = jnp.asarray(rng.uniform(0, 6.0, (n, 3)))
+    pair_list = search.allocate(sparse, 1.0)
+    update = jax.jit(search.update)
+    # Too few pair slots: the exact number needed is recorded.
+    short = pair_list.set(i=pair_list.i[:100], j=pair_list.j[:100])
+    updated = update(sparse, short)
+    assert bool(updated.overflow)
+    assert int(updated.needed_pairs) == len(brute_force_pairs(sparse, lengths, 1.0))
+    # Squeeze all particles into one corner: the cells overflow; the fullest cell is
+    # recorded (the pair count is then only a lower bound) and reallocation recounts.
+    crowded = sparse * 0.5
+    updated = update(crowded, pair_list)
+    assert bool(updated.overflow)
+    assert int(updated.needed_cell_occupancy) > pair_list.cell_capacity
+    bigger = search.allocate(
+        crowded, 1.0, minimum=(int(updated.needed_pairs), int(updated.needed_cell_occupancy))
+    )
+    assert not bool(bigger.overflow)
+    assert listed_pairs(bigger, n) == set(brute_force_pairs(crowded, lengths, 1.0))

@@ -1,0 +1,99 @@
+"""Every invalid scene field raises an error naming the field and what is valid."""
+
+import pytest
+from conftest import scene_dict
+
+from jaxdpd.scene import Scene
+
+class Replace(dict):
+    """A section that replaces the base scene's section instead of merging into it."""
+
+
+INVALID = [
+    # (sections to merge, exception, words the message must contain)
+    ({"particles": {"density": 0.0, "count": 600}}, ValueError, ["particles.density", "> 0"]),
+    ({"particles": {"density": -3.0, "count": 600}}, ValueError, ["particles.density", "> 0"]),
+    ({"particles": {"density": 3.0, "count": 1}}, ValueError, ["particles.count", "≥ 2"]),
+    ({"particles": {"density": "3", "count": 600}}, TypeError, ["particles.density", "number"]),
+    ({"integrator": {"dt": 0.0}}, ValueError, ["integrator.dt", "> 0"]),
+    ({"integrator": {"dt": -0.01}}, ValueError, ["integrator.dt", "> 0"]),
+    ({"integrator": {"lambda": 1.5}}, ValueError, ["integrator.lambda", "≤ 1"]),
+    ({"cutoff": 0.0}, ValueError, ["cutoff", "> 0"]),
+    ({"cutoff": -1.0}, ValueError, ["cutoff", "> 0"]),
+    ({"particles": {"density": 3.0, "count": 20}}, ValueError, ["box.lengths", "2 (cutoff"]),
+    ({"box": {"lengths": [10.0, 10.0, 1.9]}, "particles": Replace({"density": 3.0})}, ValueError,
+     ["box.lengths", "L_z"]),
+    ({"neighbors": {"skin": 2.5}}, ValueError, ["box.lengths", "neighbors.skin"]),
+    ({"pair": {"a": {"solvent-ghost": 25.0}}}, ValueError, ["unknown species", "ghost"]),
+    ({"pair": {"a": [[25.0, 30.0], [31.0, 25.0]]},
+      "particles": {"density": 3.0, "count": 600,
+                    "species": [{"name": "A", "fraction": 0.5}, {"name": "B", "fraction": 0.5}]}},
+     ValueError, ["pair.a", "symmetric"]),
+    ({"pair": {"a": [[25.0]]},
+      "particles": {"density": 3.0, "count": 600,
+                    "species": [{"name": "A", "count": 300}, {"name": "B", "count": 300}]}},
+     ValueError, ["pair.a", "2×2"]),
+    ({"pair": {"a": {"A-A": 25.0}},
+      "particles": {"density": 3.0, "count": 600,
+                    "species": [{"name": "A", "count": 300}, {"name": "B", "count": 300}]}},
+     ValueError, ["pair.a", "missing", "A-B"]),
+    ({"particles": {"density": 3.0, "count": 600,
+                    "species": [{"name": "A", "count": 300}, {"name": "B", "count": 200}]}},
+     ValueError, ["particles.species", "sum"]),
+    ({"solvent": None}, ValueError, ["solvent", "required"]),
+    ({"solvent": Replace({"method": "dpd", "kT": 0.0})}, ValueError, ["solvent.kT", "> 0"]),
+    ({"particles": None}, ValueError, ["particles", "required"]),
+    ({"pair": Replace({})}, ValueError, ["pair.a", "required"]),
+    ({"solvent": {"method": "dpd", "gamma": -1.0}}, ValueError, ["solvent.gamma", "≥ 0"]),
+    ({"solvent": {"method": "dpd", "sigma": 2.0}}, ValueError, ["solvent.sigma", "2 γ kT"]),
+    ({"solvent": {"method": "lattice"}}, ValueError, ["solvent.method", "valid"]),
+    ({"solvent": {"method": "dpd", "noise": "pink"}}, ValueError, ["solvent.noise", "uniform"]),
+    ({"precision": "float16"}, ValueError, ["precision", "float32"]),
+    ({"seed": -1}, ValueError, ["seed", "≥ 0"]),
+    ({"seed": 1.5}, TypeError, ["seed", "integer"]),
+    ({"temperature": 1.0}, ValueError, ["unknown key", "temperature"]),
+    ({"integrator": {"timestep": 0.01}}, ValueError, ["integrator", "unknown key", "timestep"]),
+    ({"neighbors": {"method": "verlet"}}, ValueError, ["neighbors.method", "cell_list"]),
+    ({"neighbors": {"format": "dense"}}, ValueError, ["neighbors.format", "jax_md"]),
+    ({"run": {"chunk": 0}}, ValueError, ["run.chunk", "≥ 1"]),
+    ({"run": {"steps": -5}}, ValueError, ["run.steps", "≥ 0"]),
+    ({"output": {"observables": ["viscosity"]}}, ValueError, ["output.observables", "viscosity"]),
+    ({"output": {"observables": ["rdf"], "rdf_max": 4.0}}, ValueError, ["output.rdf_max", "half"]),
+    ({"output": {"trajectory_every": 75}}, ValueError, ["output.trajectory_every", "run.chunk"]),
+]
+
+
+@pytest.mark.parametrize(("sections", "error", "words"), INVALID)
+def test_invalid_field_is_named(sections, error, words):
+    data = scene_dict(**{k: v for k, v in sections.items() if not isinstance(v, Replace)})
+    data.update({k: dict(v) for k, v in sections.items() if isinstance(v, Replace)})
+    with pytest.raises(error) as raised:
+        Scene.from_dict(data)
+    message = str(raised.value)
+    for word in words:
+        assert word in message, message
+
+
+def test_hoogerbrugge_koelman_refuses_a_pair_force_and_dpd_parameters():
+    data = scene_dict()
+    data["solvent"] = {"method": "hoogerbrugge_koelman"}
+    with pytest.raises(ValueError, match=r"pair: .*remove the \[pair\] section"):
+        Scene.from_dict(data)
+    data["solvent"] = {"method": "hoogerbrugge_koelman", "gamma": 4.5}
+    del data["pair"]
+    with pytest.raises(ValueError, match=r"solvent: \['gamma'\] belong to method 'dpd'"):
+        Scene.from_dict(data)
+
+
+def test_invalid_toml_names_the_problem(tmp_path):
+    path = tmp_path / "broken.toml"
+    path.write_text("seed = \n[particles\n")
+    with pytest.raises(ValueError, match="not valid TOML"):
+        Scene.from_toml(path)
+
+
+def test_resolved_scene_round_trips_through_to_dict():
+    scene = Scene.from_dict(scene_dict())
+    assert Scene.from_dict(scene.to_dict()) == scene
+    assert scene.n_particles == 600
+    assert scene.box.lengths[0] == pytest.approx((600 / 3.0) ** (1 / 3))
