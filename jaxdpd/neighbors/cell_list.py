@@ -1,15 +1,17 @@
 """jaxdpd's cell-list half neighbour list.
 
-Particles are binned into cells of side ≥ r_c + skin; each particle looks at the
-members of its own cell with a larger index and at all members of 13 "forward"
-neighbour cells (a half stencil), so each pair is found exactly once.  Candidate
-coordinates are handled component by component (structure of arrays), which XLA's
-CPU backend vectorises far better than (…, 3) arrays.  Accepted pairs are compacted
-into flat (i, j) arrays with two branch-free binary searches instead of a scatter.
+Particles are binned into cells of side ≥ r_c + skin and laid out on a padded grid
+(slot, c_x, c_y, c_z) of per-cell member slots.  Each cell is compared with itself
+(slot pairs j > i) and with 13 "forward" neighbour cells (a half stencil), so every
+pair is found exactly once.  The neighbour blocks are whole-grid rolls, and the
+distance tests are dense element-wise arithmetic on (slot, cell) planes: XLA's CPU
+backend runs these far faster than per-particle gathers of candidates.  Each test
+result is packed into 32-bit words, one bit per candidate slot, and the accepted pairs
+are compacted into flat (i, j) arrays by branch-free binary searches over popcounts.
 
 Axes with fewer than three cells fall back to a single cell along that axis (every
-particle is a candidate along it); the minimum image stays unique because the scene
-requires L > 2 (r_c + skin).
+particle is a candidate along it, measured by the minimum image, which stays unique
+because the scene requires L > 2 (r_c + skin)).
 """
 
 import itertools
@@ -17,10 +19,11 @@ import math
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
+
+WORD_BITS = 32
 
 
 def cell_grid(box: PeriodicBox, list_cutoff: float) -> tuple[int, int, int]:
@@ -32,31 +35,12 @@ def cell_grid(box: PeriodicBox, list_cutoff: float) -> tuple[int, int, int]:
     return tuple(counts)
 
 
-def forward_neighbor_cells(n_cells: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """For every cell, its forward (half-stencil) neighbour cells and their images.
-
-    A cell id is (c_x n_y + c_y) n_z + c_z.  The offsets are those of {−1, 0, 1}³
-    (only 0 along single-cell axes) that are lexicographically positive, so every
-    unordered pair of distinct cells is visited from exactly one side.
-
-    Returns:
-        ids: (n_cells_total, n_offsets) int32 neighbour cell ids.
-        images: (3, n_cells_total, n_offsets) int8, the number of box lengths to add
-            to a neighbour's coordinate when the offset crosses the boundary.
-    """
+def stencil(n_cells: tuple[int, int, int]) -> list[tuple[int, int, int]]:
+    """The own cell (0, 0, 0) followed by the lexicographically positive offsets of
+    {−1, 0, 1}³ (only 0 along single-cell axes): every unordered pair of distinct
+    cells is visited from exactly one side."""
     choices = [(-1, 0, 1) if n >= 3 else (0,) for n in n_cells]
-    offsets = [o for o in itertools.product(*choices) if o > (0, 0, 0)]
-    offsets = np.array(offsets, np.int64).reshape(-1, 3)
-    grid = np.stack(np.meshgrid(*[np.arange(n) for n in n_cells], indexing="ij"), axis=-1).reshape(
-        -1, 3
-    )
-    unwrapped = grid[:, None, :] + offsets[None, :, :]
-    images = np.floor_divide(unwrapped, np.array(n_cells))
-    neighbors = unwrapped - images * np.array(n_cells)
-    _, ny, nz = n_cells
-    ids = (neighbors[..., 0] * ny + neighbors[..., 1]) * nz + neighbors[..., 2]
-    shape = (grid.shape[0], offsets.shape[0])
-    return ids.reshape(shape).astype(np.int32), np.moveaxis(images, -1, 0).astype(np.int8)
+    return [(0, 0, 0)] + [o for o in itertools.product(*choices) if o > (0, 0, 0)]
 
 
 def _lower_bound(values_at, length: int, targets):
@@ -77,112 +61,120 @@ def _lower_bound(values_at, length: int, targets):
     return jax.lax.fori_loop(0, iterations, halve, bounds)[0]
 
 
-def _cell_ids(positions, cell_size, n_cells):
-    """Id (c_x n_y + c_y) n_z + c_z of the cell holding each particle, (N,) int32."""
+def _cell_coordinates(positions, cell_size, n_cells):
+    """Integer cell coordinates (c_x, c_y, c_z) of each particle, (N, 3) int32."""
     cell_xyz = jnp.floor(positions / jnp.asarray(cell_size, positions.dtype)).astype(jnp.int32)
-    cell_xyz = jnp.clip(cell_xyz, 0, jnp.asarray(n_cells, jnp.int32) - 1)
-    return (cell_xyz[:, 0] * n_cells[1] + cell_xyz[:, 1]) * n_cells[2] + cell_xyz[:, 2]
+    return jnp.clip(cell_xyz, 0, jnp.asarray(n_cells, jnp.int32) - 1)
 
 
-def _cell_members(cell_ids, n_cells_total: int, cell_capacity: int):
-    """Members of each cell, slot-major and padded with N, and the fullest occupancy.
+def _cell_id(cell_xyz, n_cells):
+    """Cell id (c_x n_y + c_y) n_z + c_z from integer coordinates (..., 3)."""
+    return (cell_xyz[..., 0] * n_cells[1] + cell_xyz[..., 1]) * n_cells[2] + cell_xyz[..., 2]
+
+
+def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
+    """Sort particles into per-cell slots.
 
     Returns:
-        members: (cell_capacity, n_cells_total) int32 particle indices.
+        members: (cell_capacity, n_cells_total) int32, the particle in each slot
+            (N when empty).
+        slot: (N,) int32, each particle's slot within its cell.
         max_occupancy: int32 scalar.
     """
     n = cell_ids.shape[0]
     order = jnp.argsort(cell_ids).astype(jnp.int32)
     counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1)
     starts = jnp.cumsum(counts) - counts
-    slot = jnp.arange(cell_capacity, dtype=jnp.int32)[:, None]
-    gathered = order[jnp.clip(starts[None, :] + slot, 0, n - 1)]
-    return jnp.where(slot < counts[None, :], gathered, n), jnp.max(counts)
+    rank = jnp.arange(n, dtype=jnp.int32) - starts[cell_ids[order]]
+    slot = jnp.zeros(n, jnp.int32).at[order].set(rank)
+    slots = jnp.arange(cell_capacity, dtype=jnp.int32)[:, None]
+    gathered = order[jnp.clip(starts[None, :] + slots, 0, n - 1)]
+    return jnp.where(slots < counts[None, :], gathered, n), slot, jnp.max(counts)
 
 
-def _word_layout(cell_capacity: int) -> tuple[int, int]:
-    """(bits per word, words per cell): a cell's slots are split into ≤ 32-bit words."""
-    width = min(cell_capacity, 32)
-    return width, math.ceil(cell_capacity / width)
+def _accepted_words(box, positions, members, n_cells, offsets, list_cutoff):
+    """Distance tests of every (slot, cell) against the slots of its stencil cells.
 
-
-def _candidates(box, positions, cell_size, n_cells, tables, cell_capacity, list_cutoff):
-    """Candidate partners of every particle, grouped in words of ≤ 32 slots.
-
-    Word w of particle n holds slots 0..width−1 of one (cell, slot group); bit k of
-    `accepted[n, w]` says whether candidate `candidates[k, n, w]` is within r_list.
-    Slot-major layout keeps the inner loops over contiguous (N, words) planes.
-
-    Along axes with three or more cells the separation is exact from the cell
-    images; along single-cell axes it is the minimum image.
-
+    Args:
+        members: (slots, cells) particle in each slot (N when empty).
+        offsets: the stencil, own cell first.
     Returns:
-        candidates: (width, N, words) int32 (N where empty).
-        accepted: (N, words) uint32 bit masks.
-        max_occupancy: int32 scalar.
+        (words, slots, cells) uint32; bit b of word (o, g) says whether slot
+        g·32 + b of the neighbour cell (cell + offset o) is within r_list.
     """
     n = positions.shape[0]
-    width, groups = _word_layout(cell_capacity)
-    cell_ids = _cell_ids(positions, cell_size, n_cells)
-    members, max_occupancy = _cell_members(cell_ids, math.prod(n_cells), width * groups)
-    ids, images = tables
-    visited = jnp.concatenate([cell_ids[:, None], ids[cell_ids]], axis=1)  # (N, cells)
-    words_per_particle = visited.shape[1] * groups
+    dtype = positions.dtype
+    cell_capacity = members.shape[0]
+    grid_shape = (cell_capacity,) + n_cells
+    members = members.reshape(grid_shape)
+    empty = members >= n
+    safe = jnp.minimum(members, n - 1)
+    # Empty slots hold NaN: every comparison with them is False.
+    coordinates = [
+        jnp.where(empty, jnp.asarray(jnp.nan, dtype), positions[:, axis][safe]) for axis in range(3)
+    ]
+    groups = math.ceil(cell_capacity / WORD_BITS)
+    limit = jnp.asarray(list_cutoff**2, dtype)
+    slot_index = jnp.arange(cell_capacity).reshape((-1, 1, 1, 1))
+    words = []
+    for offset in offsets:
+        shift = tuple(-o for o in offset)
+        rolled = []
+        for axis in range(3):
+            neighbor = jnp.roll(coordinates[axis], shift, axis=(1, 2, 3))
+            if offset[axis] != 0:
+                # Cells whose neighbour wrapped around see it one box length away.
+                edge = n_cells[axis] - 1 if offset[axis] > 0 else 0
+                index = jnp.arange(n_cells[axis]).reshape(
+                    [n_cells[axis] if a == axis else 1 for a in range(3)]
+                )
+                image = jnp.where(index == edge, offset[axis] * box.lengths[axis], 0.0)
+                neighbor = neighbor + image.astype(dtype)[None]
+            rolled.append(neighbor)
+        group_words = [jnp.zeros(grid_shape, jnp.uint32) for _ in range(groups)]
+        for j in range(cell_capacity):
+            distance_sq = jnp.zeros(grid_shape, dtype)
+            for axis in range(3):
+                separation = coordinates[axis] - rolled[axis][j][None]
+                if n_cells[axis] == 1:
+                    separation = box.minimum_image(separation, axis)
+                distance_sq = distance_sq + separation * separation
+            within = distance_sq < limit
+            if offset == (0, 0, 0):
+                within = within & (slot_index < j)
+            bit = jnp.uint32(j % WORD_BITS)
+            group_words[j // WORD_BITS] = group_words[j // WORD_BITS] | (
+                within.astype(jnp.uint32) << bit
+            )
+        words.extend(group_words)
+    return jnp.stack(words).reshape(len(words), cell_capacity, -1)
 
-    def per_word(per_cell_slot):
-        """(groups·width, cells) -> (width, N, words): word (cell, g) holds slots g·width…"""
-        planes = per_cell_slot.reshape(groups, width, -1)[:, :, visited]
-        return jnp.moveaxis(planes, 0, -1).reshape(width, n, words_per_particle)
 
-    candidates = per_word(members)
-    index = jnp.arange(n, dtype=jnp.int32)[:, None]
-    in_own_cell = (jnp.arange(words_per_particle) < groups)[None, :]
-    safe_members = jnp.minimum(members, n - 1)
-    distance_sq = jnp.zeros(candidates.shape, positions.dtype)
-    for axis in range(3):
-        coordinate = positions[:, axis]
-        separation = per_word(coordinate[safe_members]) - coordinate[None, :, None]
-        if n_cells[axis] >= 3:
-            length = jnp.asarray(box.lengths[axis], positions.dtype)
-            own_image = jnp.zeros((n, 1), positions.dtype)
-            image = jnp.concatenate([own_image, images[axis][cell_ids].astype(positions.dtype)], 1)
-            image = jnp.repeat(image, groups, axis=1) if groups > 1 else image
-            separation = separation + (image * length)[None]
-        else:
-            separation = box.minimum_image(separation, axis)
-        distance_sq = distance_sq + separation * separation
-    within = (candidates < n) & (distance_sq < list_cutoff**2)
-    within = within & (~in_own_cell[None] | (candidates > index[None]))
-    accepted = jnp.zeros((n, words_per_particle), jnp.uint32)
-    for bit in range(width):
-        accepted = accepted | (within[bit].astype(jnp.uint32) << bit)
-    return candidates, accepted, max_occupancy
+def _compact(accepted, pair_capacity: int):
+    """Locate the set bits of `accepted` (words × rows) in row-major order.
 
-
-def _compact(candidates, accepted, pair_capacity: int):
-    """Flatten the accepted candidates into pair arrays of fixed length.
-
-    Pair slot p is located by three branch-free binary searches: its particle (over
-    the cumulative pair counts of the particles), its word (over the cumulative
-    counts of that particle's words) and its bit (over popcounts of bit prefixes).
+    Pair slot p is found by three binary searches: its row (over cumulative counts
+    of the rows), its word (over the row's cumulative word counts) and its bit (over
+    popcounts of bit prefixes).
 
     Returns:
-        i, j: (pair_capacity,) int32, padded with N.
-        total: int32 number of accepted pairs (may exceed the capacity).
+        row, word, bit: (pair_capacity,) int32 locations.
+        valid: (pair_capacity,) bool, p < total.
+        total: int32 number of set bits (may exceed the capacity).
     """
-    width, n, words = candidates.shape
+    words, rows = accepted.shape
     per_word = jax.lax.population_count(accepted).astype(jnp.int32)
-    word_inclusive = jnp.cumsum(per_word, axis=1, dtype=jnp.int32)
-    per_row = word_inclusive[:, -1]
+    word_inclusive = jnp.cumsum(per_word, axis=0, dtype=jnp.int32)
+    per_row = word_inclusive[-1]
     row_inclusive = jnp.cumsum(per_row, dtype=jnp.int32)
     total = row_inclusive[-1]
     slots = jnp.arange(pair_capacity, dtype=jnp.int32)
-    row = jnp.minimum(_lower_bound(lambda k: row_inclusive[k], n, slots + 1), n - 1)
+    row = jnp.minimum(_lower_bound(lambda k: row_inclusive[k], rows, slots + 1), rows - 1)
     rank = slots - (row_inclusive[row] - per_row[row])
     flat_inclusive = word_inclusive.reshape(-1)
-    word = _lower_bound(lambda k: flat_inclusive[row * words + k], words, rank + 1)
+    word = _lower_bound(lambda k: flat_inclusive[k * rows + row], words, rank + 1)
     word = jnp.minimum(word, words - 1)
-    flat = row * words + word
+    flat = word * rows + row
     rank = rank - (flat_inclusive[flat] - per_word.reshape(-1)[flat])
     bits = accepted.reshape(-1)[flat]
 
@@ -190,11 +182,8 @@ def _compact(candidates, accepted, pair_capacity: int):
         prefix = (jnp.uint32(2) << k.astype(jnp.uint32)) - jnp.uint32(1)
         return jax.lax.population_count(bits & prefix).astype(jnp.int32)
 
-    bit = jnp.minimum(_lower_bound(set_bits_up_to, width, rank + 1), width - 1)
-    valid = slots < total
-    i = jnp.where(valid, row, n)
-    j = jnp.where(valid, candidates.reshape(-1)[(bit * n + row) * words + word], n)
-    return i, j, total
+    bit = jnp.minimum(_lower_bound(set_bits_up_to, WORD_BITS, rank + 1), WORD_BITS - 1)
+    return row, word, bit, slots < total, total
 
 
 def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float):
@@ -210,18 +199,28 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
     """
     list_cutoff = cutoff + skin
     n_cells = cell_grid(box, list_cutoff)
+    n_cells_total = math.prod(n_cells)
     cell_size = tuple(length / n for length, n in zip(box.lengths, n_cells, strict=True))
-    tables = tuple(jnp.asarray(t) for t in forward_neighbor_cells(n_cells))
 
-    def mask(positions, cell_capacity):
-        return _candidates(box, positions, cell_size, n_cells, tables, cell_capacity, list_cutoff)
+    offsets = stencil(n_cells)
+    offset_table = jnp.asarray(offsets, jnp.int32)
 
     def build(positions, cell_capacity: int, pair_capacity: int) -> PairList:
-        candidates, accepted, max_occupancy = mask(positions, cell_capacity)
-        i, j, total = _compact(candidates, accepted, pair_capacity)
+        cell_xyz = _cell_coordinates(positions, cell_size, n_cells)
+        cell_ids = _cell_id(cell_xyz, n_cells)
+        members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity)
+        grid_words = _accepted_words(box, positions, members, n_cells, offsets, list_cutoff)
+        # Each particle's row of words: (words, N).
+        accepted = grid_words[:, jnp.minimum(slot, cell_capacity - 1), cell_ids]
+        accepted = jnp.where(slot < cell_capacity, accepted, jnp.uint32(0))
+        i, word, bit, valid, total = _compact(accepted, pair_capacity)
+        groups = math.ceil(cell_capacity / WORD_BITS)
+        partner_slot = jnp.minimum((word % groups) * WORD_BITS + bit, cell_capacity - 1)
+        neighbor_xyz = (cell_xyz[i] + offset_table[word // groups]) % jnp.asarray(n_cells)
+        partner = members[partner_slot, _cell_id(neighbor_xyz, n_cells)]
         return PairList(
-            i=i,
-            j=j,
+            i=jnp.where(valid, i, n_particles),
+            j=jnp.where(valid, partner, n_particles),
             reference_positions=positions,
             needed_pairs=total,
             needed_cell_occupancy=max_occupancy,
@@ -230,13 +229,13 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
             cell_capacity=cell_capacity,
         )
 
+    build_jit = jax.jit(build, static_argnums=(1, 2))
+
     @jax.jit
     def fullest_cell(positions):
         """Occupancy of the fullest cell (sizes the cell buffers)."""
-        ids = _cell_ids(positions, cell_size, n_cells)
-        return jnp.max(jnp.zeros(math.prod(n_cells), jnp.int32).at[ids].add(1))
-
-    build_jit = jax.jit(build, static_argnums=(1, 2))
+        ids = _cell_id(_cell_coordinates(positions, cell_size, n_cells), n_cells)
+        return jnp.max(jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1))
 
     def allocate(positions, capacity_multiplier: float = 1.25, minimum=None) -> PairList:
         """Size the buffers for `positions` (outside jit), then build the list.
@@ -255,9 +254,8 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
         cell_capacity = occupancy + max(3, math.ceil(0.2 * occupancy))
         ideal = 0.5 * n_particles * (n_particles - 1) * 4 / 3 * math.pi * list_cutoff**3
         pairs = max(ideal / box.volume, int(min_pairs))
-        pair_list = build_jit(
-            positions, cell_capacity, max(16, math.ceil(pairs * capacity_multiplier))
-        )
+        capacity = max(16, math.ceil(pairs * capacity_multiplier))
+        pair_list = build_jit(positions, cell_capacity, capacity)
         if int(pair_list.needed_pairs) > pair_list.capacity:
             needed = math.ceil(int(pair_list.needed_pairs) * capacity_multiplier)
             pair_list = build_jit(positions, cell_capacity, needed)
@@ -275,6 +273,8 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
                 rebuilds=old.rebuilds + 1,
             )
 
+        if skin == 0:
+            return rebuild(pair_list)
         stale = needs_rebuild(box, positions, pair_list.reference_positions, skin)
         return jax.lax.cond(stale, rebuild, lambda old: old, pair_list)
 
