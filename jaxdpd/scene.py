@@ -156,20 +156,16 @@ class Scene:
     @classmethod
     def from_toml(cls, path) -> "Scene":
         """Read and validate a scene file."""
-        try:
-            with open(path, "rb") as handle:
-                data = tomllib.load(handle)
-        except tomllib.TOMLDecodeError as error:
-            raise ValueError(f"{path}: not valid TOML ({error})") from None
-        return cls.from_dict(data)
+        with open(path, "rb") as handle:
+            return cls.from_toml_string(handle.read().decode("utf-8"), source=str(path))
 
     @classmethod
-    def from_toml_string(cls, text: str) -> "Scene":
-        """Validate a scene given as TOML text."""
+    def from_toml_string(cls, text: str, source: str = "scene") -> "Scene":
+        """Validate a scene given as TOML text (`source` names it in errors)."""
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as error:
-            raise ValueError(f"scene: not valid TOML ({error})") from None
+            raise ValueError(f"{source}: not valid TOML ({error})") from None
         return cls.from_dict(data)
 
     @classmethod

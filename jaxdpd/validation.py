@@ -23,6 +23,15 @@ def _field(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
 
 
+def _present(section: dict, key: str, path: str, default, hint: str = "") -> bool:
+    """True when `key` is given; False when absent with a default; else an error."""
+    if key in section:
+        return True
+    if default is _MISSING:
+        raise ValueError(f"{_field(path, key)}: required field is missing{hint}")
+    return False
+
+
 def read_number(
     section: dict,
     key: str,
@@ -36,9 +45,7 @@ def read_number(
 ):
     """A real (or integer) field within [minimum, maximum] (minimum exclusive on request)."""
     name = _field(path, key)
-    if key not in section:
-        if default is _MISSING:
-            raise ValueError(f"{name}: required field is missing")
+    if not _present(section, key, path, default):
         return default
     value = section[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -61,9 +68,7 @@ def read_number(
 def read_choice(section: dict, key: str, path: str, choices, default=_MISSING):
     """A string field taking one of `choices`."""
     name = _field(path, key)
-    if key not in section:
-        if default is _MISSING:
-            raise ValueError(f"{name}: required field is missing; valid: {list(choices)}")
+    if not _present(section, key, path, default, f"; valid: {list(choices)}"):
         return default
     value = section[key]
     if not isinstance(value, str):
@@ -76,9 +81,7 @@ def read_choice(section: dict, key: str, path: str, choices, default=_MISSING):
 def read_string(section: dict, key: str, path: str, default=_MISSING):
     """A free string field."""
     name = _field(path, key)
-    if key not in section:
-        if default is _MISSING:
-            raise ValueError(f"{name}: required field is missing")
+    if not _present(section, key, path, default):
         return default
     value = section[key]
     if not isinstance(value, str) or not value:
@@ -89,9 +92,7 @@ def read_string(section: dict, key: str, path: str, default=_MISSING):
 def read_list(section: dict, key: str, path: str, default=_MISSING):
     """A list field (element checks are the caller's)."""
     name = _field(path, key)
-    if key not in section:
-        if default is _MISSING:
-            raise ValueError(f"{name}: required field is missing")
+    if not _present(section, key, path, default):
         return default
     value = section[key]
     if not isinstance(value, (list, tuple)):
