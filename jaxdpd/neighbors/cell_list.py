@@ -82,7 +82,10 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
         max_occupancy: int32 scalar.
     """
     n = cell_ids.shape[0]
-    order = jnp.argsort(cell_ids).astype(jnp.int32)
+    # Sorting one packed int64 key (cell, index) is several times faster on CPU
+    # than argsort's key–index pair sort; the result is the same stable order.
+    packed = cell_ids.astype(jnp.int64) * n + jnp.arange(n, dtype=jnp.int64)
+    order = (jnp.sort(packed) % n).astype(jnp.int32)
     counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1)
     starts = jnp.cumsum(counts) - counts
     rank = jnp.arange(n, dtype=jnp.int32) - starts[cell_ids[order]]
