@@ -1,0 +1,59 @@
+"""Helpers shared by the benchmark scripts: timing, tables, JSON results."""
+
+import json
+import platform
+import resource
+import time
+from pathlib import Path
+
+import jax
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def machine() -> dict:
+    """Where a figure was measured."""
+    device = jax.devices()[0]
+    return {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "jax_backend": device.platform,
+        "device": str(device.device_kind),
+        "cpu_count": __import__("os").cpu_count(),
+        "jax": jax.__version__,
+    }
+
+
+def peak_rss_mib() -> float:
+    """Peak resident set size of this process so far (MiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def timed(function, *args):
+    """(result, seconds) of a call whose result is a JAX pytree (blocked on)."""
+    start = time.perf_counter()
+    result = function(*args)
+    jax.block_until_ready(result)
+    return result, time.perf_counter() - start
+
+
+def print_table(columns, rows) -> None:
+    """Print rows (dicts) under the given column names."""
+    widths = [max(len(c), *(len(_fmt(r.get(c))) for r in rows)) for c in columns]
+    print("  ".join(c.rjust(w) for c, w in zip(columns, widths, strict=True)))
+    for row in rows:
+        print("  ".join(_fmt(row.get(c)).rjust(w) for c, w in zip(columns, widths, strict=True)))
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return "" if value is None else str(value)
+
+
+def write_json(name: str, payload: dict) -> Path:
+    """Write benchmarks/results/<name>.json with the machine description added."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / f"{name}.json"
+    path.write_text(json.dumps({"machine": machine(), **payload}, indent=2))
+    return path
