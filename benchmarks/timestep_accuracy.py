@@ -84,9 +84,7 @@ def main() -> None:
     ]
     print()
     print_table(columns, rows)
-    path = write_json(
-        "timestep_accuracy", {"N": n, "sample_time": sample_time, "rows": rows}
-    )
+    path = write_json("timestep_accuracy", {"N": n, "sample_time": sample_time, "rows": rows})
     print(f"wrote {path}")
 
 

@@ -113,7 +113,11 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
     simulation = build(scene)
     state = simulation.init_fn()
     chunk = scene.run.chunk
-    state = driver.run(simulation, state, scene.run.equilibration, chunk)
+    if scene.run.equilibration:
+        state = driver.run(simulation, state, scene.run.equilibration, chunk)
+        # Fit the neighbour buffers to the equilibrated configuration: a random
+        # start has ideal-gas density fluctuations, a DPD liquid far smaller ones.
+        state = simulation.reallocate(state, None)
     path = output_path if output_path is not None else scene.output.path
     writer = H5MDWriter(path, scene) if path else None
     rdf = None
