@@ -15,7 +15,7 @@ import jax.numpy as jnp
 from jaxdpd import noise
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
-from jaxdpd.neighbors import NeighborSearch, neighbor_search
+from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.pairs import soft_repulsion_term
 from jaxdpd.pairwise import accumulate, pair_geometry
@@ -194,8 +194,7 @@ def initial_configuration(scene: Scene, box: PeriodicBox, dtype):
 
 
 def _empty_pair_list(positions):
-    from jaxdpd.neighbors import PairList
-
+    """A one-slot, never-refreshed pair list for scenes without pair terms."""
     n = positions.shape[0]
     empty = jnp.full((1,), n, jnp.int32)
     zero = jnp.asarray(0, jnp.int32)

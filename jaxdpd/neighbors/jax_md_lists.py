@@ -54,7 +54,7 @@ def jax_md_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float
             format=FORMATS[fmt],
         )
 
-    def wrap(neighbors, positions, rebuilds):
+    def wrap(neighbors, rebuilds):
         i, j = _pair_arrays(neighbors, n_particles)
         return PairList(
             i=i,
@@ -72,12 +72,12 @@ def jax_md_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float
         from the configuration, and a larger multiplier is used after an overflow."""
         multiplier = capacity_multiplier * (1.5 if minimum else 1.0)
         neighbors = make_list_fn(positions.dtype, multiplier).allocate(positions)
-        return wrap(neighbors, positions, jnp.asarray(0, jnp.int32))
+        return wrap(neighbors, jnp.asarray(0, jnp.int32))
 
     def update(positions, pair_list: PairList) -> PairList:
         neighbors = pair_list.backend.update(positions)
         rebuilt = jnp.any(neighbors.reference_position != pair_list.reference_positions)
-        return wrap(neighbors, positions, pair_list.rebuilds + rebuilt.astype(jnp.int32))
+        return wrap(neighbors, pair_list.rebuilds + rebuilt.astype(jnp.int32))
 
     half = fmt == "ordered_sparse"
     return NeighborSearch(allocate=allocate, update=update, half=half, cutoff=cutoff, skin=skin)
