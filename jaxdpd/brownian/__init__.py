@@ -47,6 +47,7 @@ from jaxdpd.brownian.rheology import (
     FlowCurve,
     ensemble_moments,
     flow_curve,
+    flow_curves,
     kramers_stress,
     material_functions,
 )
@@ -65,6 +66,7 @@ __all__ = [
     "equilibrium_state",
     "fit_spring",
     "flow_curve",
+    "flow_curves",
     "kramers_stress",
     "likelihood_ratio_sensitivity",
     "log_transition_density",

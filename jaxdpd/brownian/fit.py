@@ -328,7 +328,7 @@ def _pathwise_core(
     )
 
 
-def log_transition_density(q_next, q, kappa, spring, dt):
+def log_transition_density(q_next, q, kappa, spring, dt, m_inv=None):
     """``log p(Q_{n+1} | Q_n)`` of one semi-implicit step with Gaussian noise.
 
     Up to theta-independent constants (``-3/2 log(2 pi dt) - log det M``)::
@@ -341,6 +341,7 @@ def log_transition_density(q_next, q, kappa, spring, dt):
     Args:
       q_next, q: ``(3,)`` connectors after and before the step.
       kappa: ``(3, 3)``; spring; dt: as :func:`ottinger_step`.
+      m_inv: optional precomputed ``M^{-1}`` (it depends on kappa and dt only).
 
     Returns:
       Scalar log-density (dimensionless).
@@ -353,8 +354,9 @@ def log_transition_density(q_next, q, kappa, spring, dt):
     q2n = q_next @ q_next
     fn, dfn = jax.jvp(spring.force_factor, (q2n,), (jnp.ones_like(q2n),))
     g = 1 + h * fn
-    m = jnp.eye(3, dtype=q.dtype) + 0.5 * dt * kappa
-    dw = jnp.linalg.solve(m, g * q_next - c)
+    if m_inv is None:
+        m_inv = jnp.linalg.inv(jnp.eye(3, dtype=q.dtype) + 0.5 * dt * kappa)
+    dw = m_inv @ (g * q_next - c)
     return -(dw @ dw) / (2 * dt) + 2 * jnp.log(g) + jnp.log(g + 2 * q2n * h * dfn)
 
 
@@ -430,10 +432,13 @@ def _lr_core(
             )  # fmt: skip
         flat = _flat_observable(observable, sp)
 
+        m_inv = jnp.linalg.inv(jnp.eye(3, dtype=kappa.dtype) + 0.5 * dt * kappa)
+
         def score_fn(qn, q, th):
-            return jax.grad(lambda t: log_transition_density(qn, q, kappa, unravel_spring(t), dt))(
-                th
-            )
+            def log_p(t):
+                return log_transition_density(qn, q, kappa, unravel_spring(t), dt, m_inv)
+
+            return jax.grad(log_p)(th)
 
         ens_step = jax.vmap(ottinger_step, in_axes=(0, 0, None, None, None))
         ens_score = jax.vmap(score_fn, in_axes=(0, 0, None))
@@ -502,14 +507,15 @@ def fit_spring(
     *,
     names=None,
     n_dumbbells: int,
-    dt: float,
+    dt=None,
     n_burn: int,
     n_average: int,
-    n_iterations: int = 60,
+    n_iterations: int = 15,
     optimizer=None,
     dtype=jnp.float64,
     noise: str = "gaussian",
     checkpoint_every="sqrt",
+    gradient: str = "forward",
 ) -> FitResult:
     """Fit the FENE extensibility ``b`` to target material functions by gradient.
 
@@ -521,29 +527,43 @@ def fit_spring(
       b_start: initial ``b`` (> 0).
       names: material-function names to fit (default: all of each flow's, plus
         ``extension2``); those missing from a curve are skipped.
-      n_dumbbells, dt, n_burn, n_average, dtype, noise, checkpoint_every: the model
-        run (:func:`stationary_average`), one per target rate, all vmapped in one call.
+      n_dumbbells, n_burn, n_average, dtype, noise, checkpoint_every: the model run
+        (:func:`stationary_average`), one per target rate, all vmapped in one call.
+      dt: model time step; ``None`` (default): each target's own ``dt`` (then the
+        model and the data share their time-step bias).
       n_iterations: optimiser steps.
-      optimizer: an ``optax.GradientTransformation`` acting on ``log b``
-        (default ``optax.adam(0.1)``).
+      optimizer: an ``optax`` transformation acting on ``log b``.  Default
+        ``optax.lbfgs()`` (with its zoom line search): the fixed-noise loss is smooth and
+        deterministic, so a quasi-Newton method converges in a few iterations.  First-
+        order optimisers (e.g. ``optax.adam(0.05)``) work too but need tens of
+        iterations.  The value, gradient and loss function are passed to ``update`` as
+        extra arguments, as line searches require.
 
     Returns:
       :class:`FitResult`.
     """
     check_positive("b_start", b_start)
-    dtype = _check_run(FENE(b_start), dt, noise, n_dumbbells, n_burn, dtype)
+    dtype = _check_run(FENE(b_start), 1.0 if dt is None else dt, noise, n_dumbbells, n_burn, dtype)
     check_count("n_average", n_average)
     n_iterations = check_count("n_iterations", n_iterations)
     if not targets:
         raise ValueError("targets must be a non-empty list of FlowCurve")
-    optimizer = optax.adam(0.1) if optimizer is None else optimizer
+    if gradient not in ("forward", "reverse"):
+        raise ValueError(f"gradient must be 'forward' or 'reverse', got {gradient!r}")
+    if optimizer is None:
+        optimizer = optax.lbfgs(
+            linesearch=optax.scale_by_backtracking_linesearch(
+                max_backtracking_steps=40, decrease_factor=0.5
+            )
+        )
 
-    kappas, flows_rates, obs_targets = [], [], []
+    kappas, dts, obs_targets = [], [], []
     for curve in targets:
         check_flow(curve.flow)
         wanted = names or MATERIAL_FUNCTIONS[curve.flow] + ("extension2",)
         for i, rate in enumerate(curve.rates):
             kappas.append(velocity_gradient(curve.flow, float(rate), dtype))
+            dts.append(float(curve.dt[i]) if dt is None else float(dt))
             for name in wanted:
                 if name in curve.values:
                     err = float(curve.errors[name][i])
@@ -552,21 +572,21 @@ def fit_spring(
                     obs_targets.append(
                         (len(kappas) - 1, curve.flow, float(rate), name, curve.values[name][i], err)
                     )
-            flows_rates.append((curve.flow, float(rate)))
     if not obs_targets:
         raise ValueError(f"no target material function among {names}")
     kappas = jnp.stack(kappas)
+    dts = jnp.asarray(dts, dtype=dtype)
     values = jnp.asarray([t[4] for t in obs_targets], dtype=dtype)
     errors = jnp.asarray([t[5] for t in obs_targets], dtype=dtype)
 
     def model(log_b):
         spring = FENE(jnp.exp(log_b))
         avg = jax.vmap(
-            lambda kap: stationary_average(
+            lambda kap, step: stationary_average(
                 key,
                 spring,
                 kap,
-                dt,
+                step,
                 n_dumbbells=n_dumbbells,
                 n_burn=n_burn,
                 n_average=n_average,
@@ -574,7 +594,7 @@ def fit_spring(
                 noise=noise,
                 checkpoint_every=checkpoint_every,
             )  # fmt: skip
-        )(kappas)
+        )(kappas, dts)
         out = []
         for idx, flow, rate, name, _, _ in obs_targets:
             mf = material_functions(
@@ -586,20 +606,45 @@ def fit_spring(
     def loss(log_b):
         return jnp.mean(((model(log_b) - values) / errors) ** 2)
 
-    value_and_grad = jax.jit(jax.value_and_grad(loss))
+    def model_and_jacobian(log_b):
+        return jax.jvp(model, (log_b,), (jnp.ones_like(log_b),))
+
+    def evaluate(log_b):
+        """Loss, its gradient, model values and d model / d log b."""
+        if gradient == "reverse":
+            val, grad = jax.value_and_grad(loss)(log_b)
+            m = jax.lax.stop_gradient(model(log_b))
+            return val, grad, m, jnp.full_like(m, jnp.nan)
+        m, jac = model_and_jacobian(log_b)  # forward mode: one parameter
+        r = (m - values) / errors
+        return jnp.mean(r**2), jnp.mean(2 * r * jac / errors), m, jac
+
+    @jax.jit
+    def iteration(log_b, opt_state):
+        val, grad, m, jac = evaluate(log_b)
+        updates, opt_state = optimizer.update(
+            grad, opt_state, log_b, value=val, grad=grad, value_fn=loss
+        )
+        return optax.apply_updates(log_b, updates), opt_state, val, m, jac
+
+    def strong(tree):  # drop weak types, so the state keeps one signature (no retrace)
+        return jax.tree.map(lambda a: jnp.asarray(a, dtype=jnp.asarray(a).dtype), tree)
+
     log_b = jnp.asarray(np.log(b_start), dtype=dtype)
-    opt_state = optimizer.init(log_b)
+    opt_state = strong(optimizer.init(log_b))
     b_hist, loss_hist = [float(b_start)], []
-    for _ in range(n_iterations):  # optimiser iterations, not time steps
-        val, grad = value_and_grad(log_b)
-        updates, opt_state = optimizer.update(grad, opt_state, log_b)
-        log_b = optax.apply_updates(log_b, updates)
+    for i in range(n_iterations + 1):  # optimiser iterations, not time steps
+        new_log_b, opt_state, val, model_vals, jac = iteration(log_b, strong(opt_state))
+        if i == n_iterations:  # last call: only the model and Jacobian at the optimum
+            break
+        log_b = new_log_b
         loss_hist.append(float(val))
         b_hist.append(float(jnp.exp(log_b)))
-    jac = jax.jit(jax.jacfwd(model))(log_b)
+    if gradient == "reverse":
+        model_vals, jac = jax.jit(model_and_jacobian)(log_b)
     b_fit = float(jnp.exp(log_b))
     b_sem = b_fit / float(jnp.sqrt(jnp.sum((jac / errors) ** 2)))
-    model_vals = np.asarray(jax.jit(model)(log_b))
+    model_vals = np.asarray(model_vals)
     model_dict = {}
     for j, (_, flow, _, name, _, _) in enumerate(obs_targets):
         model_dict.setdefault((flow, name), []).append(model_vals[j])

@@ -52,7 +52,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.brownian._checks import check_count, check_positive, float_dtype
-from jaxdpd.brownian.dynamics import check_noise, equilibrium_state, simulate
+from jaxdpd.brownian.dynamics import check_noise, simulate, state_from_connectors
 from jaxdpd.brownian.flows import check_flow, velocity_gradient
 from jaxdpd.brownian.springs import check_spring
 from jaxdpd.statistics import block_average
@@ -65,6 +65,7 @@ __all__ = [
     "MATERIAL_FUNCTIONS",
     "FlowCurve",
     "flow_curve",
+    "flow_curves",
 ]
 
 MATERIAL_FUNCTIONS = {
@@ -184,96 +185,74 @@ class FlowCurve:
         """``curve[name] -> (values[name], errors[name])``."""
         return self.values[name], self.errors[name]
 
-
-_STATIC = (
-    "flow",
-    "n_dumbbells",
-    "n_equilibrate",
-    "n_samples",
-    "sample_every",
-    "n_blocks",
-    "blocks",
-    "dtype",
-    "variance_reduction",
-    "common_noise",
-    "noise",
-)
-
-
-@functools.partial(jax.jit, static_argnames=_STATIC)
-def _flow_curve_core(
-    key,
-    rates,
-    dts,
-    spring,
-    *,
-    flow,
-    n_dumbbells,
-    n_equilibrate,
-    n_samples,
-    sample_every,
-    n_blocks,
-    blocks,
-    dtype,
-    variance_reduction,
-    common_noise,
-    noise,
-):
-    k_init, k_noise = jax.random.split(key)
-    n_rates = rates.shape[0]
-    if common_noise:
-        init_keys = jnp.stack([k_init] * n_rates)
-        noise_keys = jnp.stack([k_noise] * n_rates)
-    else:
-        init_keys = jax.random.split(k_init, n_rates)
-        noise_keys = jax.random.split(k_noise, n_rates)
-    n_groups = n_blocks if blocks == "ensemble" else 1
-
-    def one_rate(k_i, k_n, rate, dt):
-        state0 = equilibrium_state(k_i, spring, n_dumbbells, dtype)
-        kappa = velocity_gradient(flow, rate, dtype)
-        kappas = jnp.stack([kappa, jnp.zeros_like(kappa)]) if variance_reduction else kappa[None]
-
-        def run(kap):
-            state = state0
-            if n_equilibrate:
-                state, _ = simulate(
-                    k_n, state, kap, spring, dt, n_samples=1, sample_every=n_equilibrate,
-                    observe=lambda c, s: None, noise=noise,
-                )  # fmt: skip
-            return simulate(
-                k_n, state, kap, spring, dt, n_samples=n_samples, sample_every=sample_every,
-                observe=lambda c, s: ensemble_moments(c, s, n_groups), noise=noise,
-            )  # fmt: skip
-
-        final, samples = jax.vmap(run)(kappas)
-        fqq = samples["fqq"][0]
-        if variance_reduction:
-            fqq = fqq - samples["fqq"][1]
-        # Per-sample (and per-group) material functions: (S,) or (S, G).
-        rate_b = rate if n_groups == 1 else rate[..., None]
-        mf = material_functions(flow, rate_b, fqq, samples["q2"][0], samples["q"][0], spring=spring)
-        if n_groups > 1:
-            stats = {k: block_average(jnp.mean(v, axis=0), n_groups) for k, v in mf.items()}
-            series = {k: jnp.mean(v, axis=1) for k, v in mf.items()}
-        else:
-            stats = {k: block_average(v, n_blocks) for k, v in mf.items()}
-            series = mf
-        return (
-            {k: v[0] for k, v in stats.items()},
-            {k: v[1] for k, v in stats.items()},
-            series,
-            jnp.sum(final.guard_hits),
-            jnp.max(final.max_extension2),
+    def select(self, which) -> FlowCurve:
+        """The sub-curve at the rates picked by ``which`` (boolean mask or indices)."""
+        idx = np.arange(self.rates.shape[0])[which]
+        pick = lambda d: {k: v[idx] for k, v in d.items()}  # noqa: E731
+        return dataclasses.replace(
+            self,
+            rates=self.rates[idx],
+            values=pick(self.values),
+            errors=pick(self.errors),
+            series=pick(self.series),
+            guard_hits=self.guard_hits[idx],
+            max_extension2=self.max_extension2[idx],
+            dt=self.dt[idx],
+            t_average=self.t_average[idx],
         )
 
-    return jax.vmap(one_rate)(init_keys, noise_keys, rates, dts)
+
+@functools.partial(jax.jit, static_argnames=("n_dumbbells", "dtype"))
+def _equilibrium_connectors(key, spring, n_dumbbells, dtype):
+    return spring.sample_equilibrium(key, n_dumbbells, dtype)
 
 
-def flow_curve(
+@functools.partial(
+    jax.jit,
+    static_argnames=(
+        "n_equilibrate", "n_samples", "sample_every", "n_groups", "variance_reduction", "noise",
+    ),
+)  # fmt: skip
+def _steady_state_core(
+    noise_keys, connectors, kappas, dts, spring, *, n_equilibrate, n_samples, sample_every,
+    n_groups, variance_reduction, noise,
+):  # fmt: skip
+    """Per rate: group time-averages and ensemble-mean series of <fQQ>, <Q^2>, <|Q|>.
+
+    The flow enters only through ``kappas`` (R, 3, 3), so one compiled program serves
+    every flow with the same ensemble size, step counts and options.
+    """
+
+    def one_rate(k_n, q0, kappa, dt):
+        state0 = state_from_connectors(q0, spring)
+        kaps = jnp.stack([kappa, jnp.zeros_like(kappa)]) if variance_reduction else kappa[None]
+
+        n_skip = -(-n_equilibrate // sample_every)  # equilibration, in whole chunks
+
+        def run(kap):
+            # one scan for equilibration and averaging: the step is compiled once
+            final, samples = simulate(
+                k_n, state0, kap, spring, dt, n_samples=n_skip + n_samples,
+                sample_every=sample_every, noise=noise,
+                observe=lambda c, s: ensemble_moments(c, s, n_groups),
+            )  # fmt: skip
+            return final, jax.tree.map(lambda x: x[n_skip:], samples)
+
+        final, samples = jax.vmap(run)(kaps)
+        samples = jax.tree.map(lambda x: x[0], samples) | (
+            {"fqq": samples["fqq"][0] - samples["fqq"][1]} if variance_reduction else {}
+        )
+        # samples[name]: (S, G, ...) or (S, ...) when n_groups == 1
+        groups = jax.tree.map(lambda x: jnp.mean(x, axis=0), samples)
+        series = samples if n_groups == 1 else jax.tree.map(lambda x: jnp.mean(x, 1), samples)
+        return groups, series, jnp.sum(final.guard_hits), jnp.max(final.max_extension2)
+
+    return jax.vmap(one_rate)(noise_keys, connectors, kappas, dts)
+
+
+def flow_curves(
     key,
-    flow: str,
-    rates,
+    flows: dict,
     spring,
     *,
     n_dumbbells: int,
@@ -287,22 +266,25 @@ def flow_curve(
     variance_reduction: bool = False,
     common_noise: bool = False,
     noise: str = "gaussian",
-) -> FlowCurve:
-    """Steady-state material functions at many rates in one jitted, vmapped call.
+) -> dict:
+    """Steady-state material functions of several flows and rates in ONE jitted call.
 
+    The velocity gradients of every (flow, rate) pair are stacked and the whole set is
+    simulated by one vmapped, jitted program (:func:`flow_curve` is the one-flow case).
     Each rate starts from an exact equilibrium ensemble, runs ``n_equilibrate`` steps,
     then ``n_samples * sample_every`` steps observed every ``sample_every`` steps.
 
     Args:
       key: PRNG key.
-      flow: ``shear``, ``planar_elongation``, ``uniaxial_elongation`` or ``equilibrium``.
-      rates: ``(R,)`` dimensionless rates De (> 0; for ``equilibrium`` any positive
-        placeholder).
+      flows: dict flow name -> rates, e.g. ``{"shear": [0.1, 1, 10],
+        "planar_elongation": [0.1, 1]}``; rates are dimensionless ``De`` (> 0; for
+        ``equilibrium`` any positive placeholder).
       spring: :class:`Hookean` or :class:`FENE`.
       n_dumbbells: ensemble size per rate.
-      dt: time step (units lambda_H), scalar or ``(R,)`` (one per rate; the step counts
-        are shared, so the simulated time is ``n * dt`` per rate).
-      n_equilibrate: steps discarded before averaging (>= 0).
+      dt: time step (units lambda_H): a scalar, or a dict flow name -> scalar or array
+        (one per rate; the step counts are shared, so the simulated time is ``n dt``).
+      n_equilibrate: steps discarded before averaging (>= 0; rounded up to a multiple
+        of ``sample_every``, since equilibration and averaging share one scan).
       n_samples, sample_every: averaging window, ``n_samples * sample_every`` steps.
       n_blocks: number of blocks for the error bars (>= 2).
       blocks: ``"ensemble"`` (default): the ensemble is cut into ``n_blocks`` groups of
@@ -319,18 +301,24 @@ def flow_curve(
         :func:`jaxdpd.brownian.dynamics.wiener_increments`).
 
     Returns:
-      :class:`FlowCurve` (NumPy arrays).
+      dict flow name -> :class:`FlowCurve` (NumPy arrays).
     """
-    check_flow(flow)
+    if not isinstance(flows, dict) or not flows:
+        raise ValueError(f"flows must be a non-empty dict flow name -> rates, got {flows!r}")
     dtype = float_dtype(dtype)
     check_spring(spring)
     check_noise(noise)
-    rates_np = np.atleast_1d(np.asarray(rates, dtype=np.float64))
-    if rates_np.ndim != 1:
-        raise ValueError(f"rates must be a scalar or 1-D, got shape {rates_np.shape}")
-    check_positive("rates", rates_np)
-    check_positive("dt", dt)
-    dts_np = np.broadcast_to(np.asarray(dt, dtype=np.float64), rates_np.shape)
+    rates_of, dts_of = {}, {}
+    for flow, rates in flows.items():
+        check_flow(flow)
+        r = np.atleast_1d(np.asarray(rates, dtype=np.float64))
+        if r.ndim != 1:
+            raise ValueError(f"rates must be a scalar or 1-D, got shape {r.shape} for {flow}")
+        check_positive("rates", r)
+        d = dt[flow] if isinstance(dt, dict) else dt
+        check_positive("dt", d)
+        rates_of[flow] = r
+        dts_of[flow] = np.broadcast_to(np.asarray(d, dtype=np.float64), r.shape)
     n_dumbbells = check_count("n_dumbbells", n_dumbbells)
     n_equilibrate = check_count("n_equilibrate", n_equilibrate, 0)
     n_samples = check_count("n_samples", n_samples)
@@ -345,34 +333,79 @@ def flow_curve(
         )
     if blocks == "time" and n_samples < n_blocks:
         raise ValueError(f"n_samples={n_samples} must be >= n_blocks={n_blocks}")
+
     spring_c = jax.tree.map(lambda x: jnp.asarray(x, dtype=dtype), spring)
-    means, sems, series, guard, ext2 = _flow_curve_core(
-        key,
-        jnp.asarray(rates_np, dtype=dtype),
-        jnp.asarray(dts_np, dtype=dtype),
+    all_rates = np.concatenate(list(rates_of.values()))
+    all_dts = np.concatenate(list(dts_of.values()))
+    n_total = all_rates.shape[0]
+    k_init, k_noise = jax.random.split(key)
+    if common_noise:
+        init_keys, noise_keys = [k_init] * n_total, jnp.stack([k_noise] * n_total)
+    else:
+        init_keys = list(jax.random.split(k_init, n_total))
+        noise_keys = jax.random.split(k_noise, n_total)
+    connectors = jnp.stack(
+        [_equilibrium_connectors(k, spring_c, n_dumbbells, dtype.name) for k in init_keys]
+    )
+    kappas = jnp.concatenate([velocity_gradient(f, r, dtype) for f, r in rates_of.items()])
+    n_groups = n_blocks if blocks == "ensemble" else 1
+    groups, series, guard, ext2 = _steady_state_core(
+        noise_keys,
+        connectors,
+        kappas,
+        jnp.asarray(all_dts, dtype=dtype),
         spring_c,
-        flow=flow,
-        n_dumbbells=n_dumbbells,
         n_equilibrate=n_equilibrate,
         n_samples=n_samples,
         sample_every=sample_every,
-        n_blocks=n_blocks,
-        blocks=blocks,
-        dtype=np.dtype(dtype).name,
+        n_groups=n_groups,
         variance_reduction=bool(variance_reduction),
-        common_noise=bool(common_noise),
         noise=noise,
     )
-    to_np = lambda d: {k: np.asarray(v) for k, v in d.items()}  # noqa: E731
-    return FlowCurve(
-        flow=flow,
-        rates=rates_np,
-        values=to_np(means),
-        errors=to_np(sems),
-        series=to_np(series),
-        blocks=blocks,
-        guard_hits=np.asarray(guard),
-        max_extension2=np.asarray(ext2),
-        dt=np.array(dts_np),
-        t_average=np.array(dts_np) * n_samples * sample_every,
-    )
+    # Material functions are linear in the means, so they are formed per group (or per
+    # sample) and then block-averaged.
+    out, start = {}, 0
+    for flow, rates in rates_of.items():
+        sl = slice(start, start + rates.shape[0])
+        start = sl.stop
+        rate = jnp.asarray(rates, dtype=dtype)[:, None]
+        pick = lambda m, sl=sl: jax.tree.map(lambda x: x[sl], m)  # noqa: E731
+
+        def mf_of(m, rate=rate, flow=flow):
+            return material_functions(flow, rate, m["fqq"], m["q2"], m["q"], spring=spring_c)
+
+        series_mf = mf_of(pick(series))  # (R, S)
+        source = mf_of(pick(groups)) if blocks == "ensemble" else series_mf
+        stats = {k: block_average(v, n_blocks, axis=1) for k, v in source.items()}
+        to_np = lambda d: {k: np.asarray(v) for k, v in d.items()}  # noqa: E731
+        out[flow] = FlowCurve(
+            flow=flow,
+            rates=rates,
+            values=to_np({k: v[0] for k, v in stats.items()}),
+            errors=to_np({k: v[1] for k, v in stats.items()}),
+            series=to_np(series_mf),
+            blocks=blocks,
+            guard_hits=np.asarray(guard[sl]),
+            max_extension2=np.asarray(ext2[sl]),
+            dt=np.array(dts_of[flow]),
+            t_average=np.array(dts_of[flow]) * n_samples * sample_every,
+        )
+    return out
+
+
+def flow_curve(key, flow: str, rates, spring, **kwargs) -> FlowCurve:
+    """Steady-state material functions of one flow at many rates (one jitted call).
+
+    ``flow_curve(key, flow, rates, spring, **kw)`` is
+    ``flow_curves(key, {flow: rates}, spring, **kw)[flow]``; see :func:`flow_curves`
+    for the keyword arguments (``n_dumbbells``, ``dt``, ``n_equilibrate``,
+    ``n_samples``, ``sample_every``, ``n_blocks``, ``blocks``, ``dtype``,
+    ``variance_reduction``, ``common_noise``, ``noise``).
+
+    Returns:
+      :class:`FlowCurve` (NumPy arrays).
+    """
+    check_flow(flow)
+    if isinstance(kwargs.get("dt"), dict):
+        raise ValueError("dt must be a scalar or an array of one dt per rate for flow_curve")
+    return flow_curves(key, {flow: rates}, spring, **kwargs)[flow]

@@ -208,9 +208,8 @@ class FENE:
             take = acc & ~done
             return jnp.where(take[:, None], q_new, q), done | acc, k
 
-        k0, k = jax.random.split(key)
-        q0, acc0 = propose(k0)
-        return jax.lax.while_loop(cond, body, (q0, acc0, k))[0]
+        start = (jnp.zeros((n, 3), dtype=dt), jnp.zeros((n,), dtype=jnp.bool_), key)
+        return jax.lax.while_loop(cond, body, start)[0]
 
     def initial_connectors(self, key, n, dtype=jnp.float64):
         """Smooth, isotropic start strictly inside ``Q_0``; (n, 3).

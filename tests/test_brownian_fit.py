@@ -1,0 +1,166 @@
+"""Gradients of stationary averages and fitting b by gradient (issue 4, must show 5).
+
+Exact reference: at rest the FENE equilibrium gives <Q^2> = 3b/(b+5) (thesis eq. 4.8),
+so d<Q^2>/db = 15/(b+5)^2 exactly.  Statistical tolerances: 4 standard errors from
+32 independent groups of dumbbells, plus the stated biases: time step (<= 0.2 %, see
+test_brownian_rheology.py) and, for the likelihood-ratio estimator, the truncation of
+the score window L, bounded by exp(-L / tau) |dA/db| with tau = 1 lambda_H the slowest
+relaxation time of Q^2 at rest (Hookean value; FENE relaxes faster).
+"""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxdpd  # noqa: F401
+from jaxdpd.brownian import (
+    FENE,
+    fit_spring,
+    flow_curve,
+    likelihood_ratio_sensitivity,
+    pathwise_sensitivity,
+    stationary_average,
+    velocity_gradient,
+)
+
+B = 50.0
+DT_BIAS = 2e-3
+
+
+def _q2(q, spring):
+    return q @ q
+
+
+def test_pathwise_gradient_equals_central_differences():
+    """Reverse-mode pathwise gradient (fixed noise, jax.checkpoint every sqrt(n) steps)
+    of a finite-run stationary average, d<f Q_x Q_y>/db in shear at De = 2, equals the
+    central finite difference of the same estimator (same noise).  The FD truncation
+    error is estimated by Richardson, |FD(h) - FD(h/2)|, and the tolerance is 10x that
+    plus rounding.  Forward mode (jax.jvp) gives the same derivative to rounding."""
+    kappa = velocity_gradient("shear", 2.0)
+    run = dict(n_dumbbells=64, n_burn=100, n_average=200, noise="three_point")
+
+    def average(b, checkpoint_every=None):
+        out = stationary_average(
+            jax.random.key(9), FENE(b), kappa, 0.01, checkpoint_every=checkpoint_every, **run
+        )
+        return out["fqq"][0, 1]
+
+    f = jax.jit(average)
+    grad_plain = jax.jit(jax.grad(lambda b: average(b, "sqrt")))(B)
+    _, tangent = jax.jit(lambda b: jax.jvp(average, (b,), (jnp.ones_like(b),)))(B)
+    np.testing.assert_allclose(grad_plain, tangent, rtol=1e-10)
+    h = 0.5
+    fd_h = (f(B + h) - f(B - h)) / (2 * h)
+    fd_h2 = (f(B + h / 2) - f(B - h / 2)) / h
+    truncation = abs(fd_h - fd_h2)
+    rounding = 1e-13 * abs(f(B)) / h
+    assert abs(grad_plain - fd_h2) <= 10 * truncation + rounding, (grad_plain, fd_h2)
+    assert abs(grad_plain) > 100 * (truncation + rounding)  # a non-trivial derivative
+
+
+def test_sensitivity_of_equilibrium_size_pathwise_and_likelihood_ratio():
+    """Forward-mode pathwise and likelihood-ratio estimates of d<Q^2>/db at rest agree
+    with the exact 15/(b+5)^2 (derivative of thesis eq. 4.8)."""
+    exact = 15 / (B + 5) ** 2
+    kappa = velocity_gradient("equilibrium", 0.0)
+    pw = pathwise_sensitivity(
+        jax.random.key(1), FENE(B), kappa, 0.02, n_dumbbells=1024, n_burn=200,
+        n_samples=100, sample_every=10, observable=_q2, noise="three_point",
+    )  # fmt: skip
+    der, err = pw.derivative[0, 0], pw.derivative_sem[0, 0]
+    assert abs(der - exact) <= 4 * err + DT_BIAS * exact, (der, err, exact)
+    assert err < 0.05 * exact
+
+    window, every, dt = 25, 10, 0.02  # score lag L = 5 lambda_H
+    lr = likelihood_ratio_sensitivity(
+        jax.random.key(2), FENE(B), kappa, dt, n_dumbbells=1024, n_burn=200,
+        n_samples=100, sample_every=every, window=window, observable=_q2,
+    )  # fmt: skip
+    der, err = lr.derivative[0, 0], lr.derivative_sem[0, 0]
+    truncation = math.exp(-window * every * dt / 1.0) * exact
+    assert abs(der - exact) <= 4 * err + DT_BIAS * exact + truncation, (der, err, exact)
+    assert err < 0.15 * exact
+
+
+def test_fit_recovers_b_from_wrong_start():
+    """Must show 5.  Synthetic targets: planar elongation at De = 2 and 5 for b = 50
+    (eta_bar_1, eta_bar_2 and extension, 1024 dumbbells, independent noise).  An optax
+    L-BFGS fit of log b from b = 20, with pathwise (forward-mode) gradients of a
+    64-dumbbell model, recovers b = 50 within 2 %."""
+    targets = [
+        flow_curve(
+            jax.random.key(1),
+            "planar_elongation",
+            [2.0, 5.0],
+            FENE(B),
+            n_dumbbells=1024,
+            dt=0.01,
+            n_equilibrate=400,
+            n_samples=40,
+            sample_every=10,
+            noise="three_point",
+        )  # fmt: skip
+    ]
+    result = fit_spring(
+        jax.random.key(3), targets, 20.0, n_dumbbells=64, dt=0.01, n_burn=300,
+        n_average=300, n_iterations=6, noise="three_point",
+    )  # fmt: skip
+    b_fit = float(result.spring.b)
+    assert result.b_history[0] == 20.0
+    assert abs(b_fit / B - 1) < 0.02, result.b_history
+    assert result.loss_history[-1] < 1e-3 * result.loss_history[0]
+    assert 0 < result.b_sem < 0.02 * B
+
+
+@pytest.mark.slow
+def test_likelihood_ratio_matches_finite_differences_in_shear():
+    """Slow (about 4 min).  In shear at De = 1 the likelihood-ratio estimate of
+    d eta_p/db agrees with a central finite difference (b = 45, 55, common random
+    numbers, 65536 dumbbells each) and with the forward-mode pathwise estimate, within
+    4 combined standard errors plus the window truncation (L = 6 lambda_H)."""
+    kappa = velocity_gradient("shear", 1.0)
+
+    def eta(q, spring):
+        return spring.force_factor(q @ q) * q[0] * q[1]
+
+    kw = dict(n_dumbbells=65536, n_burn=300, n_samples=200, sample_every=10, observable=eta)
+    lr = likelihood_ratio_sensitivity(jax.random.key(4), FENE(B), kappa, 0.02, window=30, **kw)
+    pw = pathwise_sensitivity(jax.random.key(5), FENE(B), kappa, 0.02, **kw)
+    plus = pathwise_sensitivity(jax.random.key(6), FENE(B + 5), kappa, 0.02, **kw)
+    minus = pathwise_sensitivity(jax.random.key(6), FENE(B - 5), kappa, 0.02, **kw)
+    fd = (plus.average[0] - minus.average[0]) / 10
+    fd_err = math.hypot(plus.average_sem[0], minus.average_sem[0]) / 10
+    for est, err in ((lr.derivative[0, 0], lr.derivative_sem[0, 0]),):
+        assert abs(est - fd) <= 4 * math.hypot(err, fd_err) + math.exp(-6) * abs(fd)
+    assert abs(pw.derivative[0, 0] - fd) <= 4 * math.hypot(pw.derivative_sem[0, 0], fd_err)
+
+
+@pytest.mark.slow
+def test_fit_from_shear_targets_with_gaussian_noise():
+    """Slow (about 3 min).  Shear-only targets (eta_p, Psi_1 at De = 1, 3, 10; 16384
+    dumbbells, Gaussian noise) and a 1024-dumbbell model: b = 50 recovered within 2 %
+    and within 4 Gauss-Newton standard errors (targets and model noise combined)."""
+    targets = [
+        flow_curve(
+            jax.random.key(7),
+            "shear",
+            [1.0, 3.0, 10.0],
+            FENE(B),
+            n_dumbbells=16384,
+            dt=0.01,
+            n_equilibrate=800,
+            n_samples=100,
+            sample_every=10,
+        )  # fmt: skip
+    ]
+    result = fit_spring(
+        jax.random.key(8), targets, 20.0, names=("viscosity", "psi1"), n_dumbbells=1024,
+        dt=0.01, n_burn=800, n_average=1000, n_iterations=8,
+    )  # fmt: skip
+    b_fit = float(result.spring.b)
+    assert abs(b_fit / B - 1) < 0.02
+    assert abs(b_fit - B) <= 4 * math.sqrt(1 + 16384 / 1024) * result.b_sem
