@@ -35,12 +35,21 @@ variables through the corrector: ``dW = (I + dt kappa/2)^-1 [G(Q_{n+1}) - c(Q_n)
 consistent with the discrete scheme, like the pathwise ones.  Needs Gaussian noise.
 Use it for non-smooth observables (indicators, histograms, where the pathwise
 derivative is zero or undefined), for very long runs, or when the trajectory cannot be
-differentiated; its variance is typically 10-100x that of the pathwise estimator.
+differentiated.  Its variance is larger than the pathwise one (6x for d<Q^2>/db at
+rest in the tests, growing with ``L``), and it needs a burn-in of ``window`` samples.
+
+Which to use when: smooth observable, one or a few parameters -> forward-mode pathwise;
+smooth observable, scalar loss of many parameters -> reverse-mode pathwise with
+``checkpoint_every="sqrt"``; non-smooth observable, or no differentiable trajectory ->
+likelihood ratio.  Pathwise derivatives of long runs stay bounded here because the
+dumbbell dynamics is contracting (perturbations decay over ~lambda_H).
 
 **Fitting** (:func:`fit_spring`): an optax optimiser on ``log b`` minimises
 ``chi^2 = mean((model - target)^2 / error^2)`` with the model from
 :func:`stationary_average` at fixed noise (sample-average approximation: the loss is
-deterministic and smooth, so plain Adam converges), gradients by reverse mode.
+deterministic and smooth).  Default: ``optax.lbfgs`` with a backtracking line search
+and forward-mode pathwise gradients; it converges in 4-6 iterations from b = 20 to
+b = 50 in the tests.
 """
 
 from __future__ import annotations
