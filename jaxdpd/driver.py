@@ -47,7 +47,9 @@ def run_chunk(simulation, state, length: int):
     for attempt in range(MAX_REALLOCATIONS + 1):
         new_state, samples = _scan_chunk(simulation.step_fn, state, length)
         flags = int(new_state.flags)
-        if flags & errors.NEIGHBOR_OVERFLOW and attempt < MAX_REALLOCATIONS:
+        # Only a pure overflow is cured by larger buffers; with any other error the
+        # configuration itself is broken and reallocating would only waste time.
+        if flags == errors.NEIGHBOR_OVERFLOW and attempt < MAX_REALLOCATIONS:
             needs = new_state.pair_list
             minimum = (int(needs.needed_pairs), int(needs.needed_cell_occupancy))
             state = simulation.reallocate(state, minimum)

@@ -63,7 +63,7 @@ def test_thermostat_off_conserves_energy_to_second_order_in_dt():
     higher-order terms) and the deviation must be small."""
     deviations = {}
     for dt in (0.02, 0.01):
-        scene = make_scene(solvent={"gamma": 0.0}, integrator={"dt": dt})
+        scene = make_scene(solvent={"gamma": 0.0}, integrator={"dt": dt}, particles={"count": 400})
         simulation = build(scene)
         # Start from an equilibrated, not random, configuration.
         state = driver.run(simulation, simulation.init_fn(), 1, 1)
@@ -124,9 +124,7 @@ def test_vmapped_steps_equal_a_loop_of_steps():
     batched_after = jax.jit(jax.vmap(lambda s: simulation.step_fn(s)[0]))(batched)
     for k, state in enumerate(states):
         single = step(state)
-        np.testing.assert_allclose(
-            batched_after.positions[k], single.positions, rtol=0, atol=1e-13
-        )
+        np.testing.assert_allclose(batched_after.positions[k], single.positions, rtol=0, atol=1e-13)
         np.testing.assert_allclose(
             batched_after.velocities[k], single.velocities, rtol=0, atol=1e-13
         )

@@ -113,7 +113,7 @@ def test_skin_rebuilds_only_when_a_particle_moved_half_the_skin():
 
 def test_overflow_is_flagged_and_needs_are_recorded():
     lengths = (6.0, 6.0, 6.0)
-    n = 648
+    n = 300
     box = PeriodicBox(lengths)
     search = neighbor_search(box, n, 1.0, 0.0)
     rng = np.random.default_rng(2)

@@ -14,7 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.neighbors import neighbor_search
+from jaxdpd.neighbors import PairList, neighbor_search
+from jaxdpd.neighbors.cell_list import cell_grid
 from jaxdpd.pairwise import pair_geometry
 
 
@@ -30,14 +31,31 @@ class RadialDistribution:
 
     def __init__(self, box, n_particles: int, r_max: float, bins: int):
         self.box, self.n_particles, self.r_max, self.bins = box, n_particles, r_max, bins
-        self._search = neighbor_search(box, n_particles, r_max, 0.0)
+        self._all_pairs = min(cell_grid(box, r_max)) < 3
+        self._search = None if self._all_pairs else neighbor_search(box, n_particles, r_max, 0.0)
         self._pairs = None
         self.counts = np.zeros(bins, np.int64)
         self.samples = 0
 
+    def _every_pair(self, positions) -> PairList:
+        """All pairs i < j as a fixed list (small boxes only)."""
+        n = self.n_particles
+        i, j = np.triu_indices(n, 1)
+        zero = jnp.asarray(0, jnp.int32)
+        return PairList(
+            jnp.asarray(i, jnp.int32),
+            jnp.asarray(j, jnp.int32),
+            positions,
+            zero,
+            zero,
+            jnp.asarray(False),
+            zero,
+        )
+
     @partial(jax.jit, static_argnums=0)
     def _histogram(self, positions, pair_list):
-        pair_list = self._search.update(positions, pair_list)
+        if not self._all_pairs:
+            pair_list = self._search.update(positions, pair_list)
         geometry = pair_geometry(self.box, positions, pair_list, self.r_max, half=True)
         shell = jnp.floor(geometry.distance * (self.bins / self.r_max)).astype(jnp.int32)
         shell = jnp.where(geometry.within, shell, self.bins)
@@ -47,7 +65,10 @@ class RadialDistribution:
     def sample(self, positions) -> None:
         """Add one configuration (N, 3) to the histogram."""
         if self._pairs is None:
-            self._pairs = self._search.allocate(positions, 1.5)
+            if self._all_pairs:
+                self._pairs = self._every_pair(positions)
+            else:
+                self._pairs = self._search.allocate(positions, 1.5)
         counts, pairs = self._histogram(positions, self._pairs)
         if bool(pairs.overflow):
             needs = (int(pairs.needed_pairs), int(pairs.needed_cell_occupancy))
