@@ -5,6 +5,7 @@ from conftest import scene_dict
 
 from jaxdpd.scene import Scene
 
+
 class Replace(dict):
     """A section that replaces the base scene's section instead of merging into it."""
 
@@ -21,25 +22,60 @@ INVALID = [
     ({"cutoff": 0.0}, ValueError, ["cutoff", "> 0"]),
     ({"cutoff": -1.0}, ValueError, ["cutoff", "> 0"]),
     ({"particles": {"density": 3.0, "count": 20}}, ValueError, ["box.lengths", "2 (cutoff"]),
-    ({"box": {"lengths": [10.0, 10.0, 1.9]}, "particles": Replace({"density": 3.0})}, ValueError,
-     ["box.lengths", "L_z"]),
+    (
+        {"box": {"lengths": [10.0, 10.0, 1.9]}, "particles": Replace({"density": 3.0})},
+        ValueError,
+        ["box.lengths", "L_z"],
+    ),
     ({"neighbors": {"skin": 2.5}}, ValueError, ["box.lengths", "neighbors.skin"]),
     ({"pair": {"a": {"solvent-ghost": 25.0}}}, ValueError, ["unknown species", "ghost"]),
-    ({"pair": {"a": [[25.0, 30.0], [31.0, 25.0]]},
-      "particles": {"density": 3.0, "count": 600,
-                    "species": [{"name": "A", "fraction": 0.5}, {"name": "B", "fraction": 0.5}]}},
-     ValueError, ["pair.a", "symmetric"]),
-    ({"pair": {"a": [[25.0]]},
-      "particles": {"density": 3.0, "count": 600,
-                    "species": [{"name": "A", "count": 300}, {"name": "B", "count": 300}]}},
-     ValueError, ["pair.a", "2×2"]),
-    ({"pair": {"a": {"A-A": 25.0}},
-      "particles": {"density": 3.0, "count": 600,
-                    "species": [{"name": "A", "count": 300}, {"name": "B", "count": 300}]}},
-     ValueError, ["pair.a", "missing", "A-B"]),
-    ({"particles": {"density": 3.0, "count": 600,
-                    "species": [{"name": "A", "count": 300}, {"name": "B", "count": 200}]}},
-     ValueError, ["particles.species", "sum"]),
+    (
+        {
+            "pair": {"a": [[25.0, 30.0], [31.0, 25.0]]},
+            "particles": {
+                "density": 3.0,
+                "count": 600,
+                "species": [{"name": "A", "fraction": 0.5}, {"name": "B", "fraction": 0.5}],
+            },
+        },
+        ValueError,
+        ["pair.a", "symmetric"],
+    ),
+    (
+        {
+            "pair": {"a": [[25.0]]},
+            "particles": {
+                "density": 3.0,
+                "count": 600,
+                "species": [{"name": "A", "count": 300}, {"name": "B", "count": 300}],
+            },
+        },
+        ValueError,
+        ["pair.a", "2×2"],
+    ),
+    (
+        {
+            "pair": {"a": {"A-A": 25.0}},
+            "particles": {
+                "density": 3.0,
+                "count": 600,
+                "species": [{"name": "A", "count": 300}, {"name": "B", "count": 300}],
+            },
+        },
+        ValueError,
+        ["pair.a", "missing", "A-B"],
+    ),
+    (
+        {
+            "particles": {
+                "density": 3.0,
+                "count": 600,
+                "species": [{"name": "A", "count": 300}, {"name": "B", "count": 200}],
+            }
+        },
+        ValueError,
+        ["particles.species", "sum"],
+    ),
     ({"solvent": None}, ValueError, ["solvent", "required"]),
     ({"solvent": Replace({"method": "dpd", "kT": 0.0})}, ValueError, ["solvent.kT", "> 0"]),
     ({"particles": None}, ValueError, ["particles", "required"]),
