@@ -65,6 +65,7 @@ __all__ = [
     "equilibrium_state",
     "simulate",
     "predictor_corrector",
+    "state_from_connectors",
     "cast_params",
 ]
 

@@ -156,10 +156,11 @@ def stationary_average(
 ):
     """Time and ensemble average of a per-dumbbell observable; differentiable.
 
-    Starts from the exact equilibrium ensemble (drawn with ``key``), runs ``n_burn``
-    steps, then averages ``observable`` over the ensemble at each of the next
-    ``n_average`` steps.  Pure and jittable; differentiate with ``jax.grad``/``jvp``
-    with respect to ``spring`` (e.g. ``b``), ``kappa`` or ``dt``.
+    Starts from a smooth isotropic ensemble drawn with ``key``
+    (:meth:`FENE.initial_connectors`, a differentiable function of ``b`` for fixed
+    noise), runs ``n_burn`` steps, then averages ``observable`` over the ensemble at
+    each of the next ``n_average`` steps.  Pure and jittable; differentiate with
+    ``jax.grad``/``jvp`` with respect to ``spring`` (e.g. ``b``), ``kappa`` or ``dt``.
 
     Args:
       key: PRNG key (initial ensemble and noise).
@@ -230,10 +231,9 @@ class Sensitivity:
     unravel: object
 
 
-def _prepare(key, spring, kappa, dt, n_dumbbells, dtype, observable):
+def _prepare(key, spring, dtype, observable):
     k_init, k_noise = jax.random.split(key)
     theta, unravel_spring = ravel_pytree(jax.tree.map(lambda x: jnp.asarray(x, dtype), spring))
-    kappa = jnp.asarray(kappa)
     q_probe = jnp.zeros((3,), dtype)
     _, unravel_obs = ravel_pytree(observable(q_probe, spring))
     return k_init, k_noise, theta, unravel_spring, unravel_obs
@@ -298,9 +298,7 @@ def _pathwise_core(
     key, spring, kappa, dt, *, n_dumbbells, n_burn, n_samples, sample_every, observable,
     n_blocks, dtype, noise,
 ):  # fmt: skip
-    k_init, k_noise, theta, unravel_spring, unravel_obs = _prepare(
-        key, spring, kappa, dt, n_dumbbells, dtype, observable
-    )
+    k_init, k_noise, theta, unravel_spring, unravel_obs = _prepare(key, spring, dtype, observable)
 
     @jax.jit
     def run(theta):
@@ -425,9 +423,7 @@ def _lr_core(
     key, spring, kappa, dt, *, n_dumbbells, n_burn, n_samples, sample_every, window,
     observable, n_blocks, dtype,
 ):  # fmt: skip
-    k_init, k_noise, theta, unravel_spring, unravel_obs = _prepare(
-        key, spring, kappa, dt, n_dumbbells, dtype, observable
-    )
+    k_init, k_noise, theta, unravel_spring, unravel_obs = _prepare(key, spring, dtype, observable)
 
     @jax.jit
     def run(theta, kappa, dt):
