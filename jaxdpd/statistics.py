@@ -63,8 +63,8 @@ def block_average(series, n_blocks: int = 20, axis: int = 0):
       ``(mean, sem)``: arrays of the series shape with ``axis`` removed; ``sem`` is the
       standard error of the mean, ``std(block means, ddof=1) / sqrt(n_blocks)``.
 
-    Reference: Flyvbjerg & Petersen, J. Chem. Phys. 91, 461 (1989), eq. (27) for the
-    plateau value; Allen & Tildesley, *Computer Simulation of Liquids*, 2nd ed., §8.4.
+    Reference: Flyvbjerg & Petersen, J. Chem. Phys. 91, 461 (1989); Allen & Tildesley,
+    *Computer Simulation of Liquids*, 2nd ed. (2017), ch. 8 (block averages).
     """
     x = _check_series(series, axis, n_blocks)
     length = x.shape[0] // n_blocks
@@ -90,7 +90,7 @@ def blocking_analysis(series, axis: int = 0, min_blocks: int = 8):
       standard error; no plateau means the series is too short for its correlation
       time.
 
-    Reference: Flyvbjerg & Petersen, J. Chem. Phys. 91, 461 (1989), §3.
+    Reference: Flyvbjerg & Petersen, J. Chem. Phys. 91, 461 (1989).
     """
     if not isinstance(min_blocks, int | np.integer) or min_blocks < 2:
         raise ValueError(f"min_blocks must be an integer >= 2, got {min_blocks!r}")

@@ -154,7 +154,7 @@ def test_float32_run_stays_float32():
 
 def test_three_point_increments_have_gaussian_moments():
     """Three-point increments sqrt(3 dt){-1,0,1} w.p. {1/6,2/3,1/6} (Kloeden & Platen
-    §14.2): frequencies within 4 binomial standard errors; exact moments E z^2 = dt,
+    ch. 14): frequencies within 4 binomial standard errors; exact moments E z^2 = dt,
     E z^4 = 3 dt^2 follow from the frequencies."""
     dt, n = 0.04, 200_000
     z = np.asarray(wiener_increments(jax.random.key(5), 3, n, dt, jnp.float64, "three_point"))

@@ -79,7 +79,7 @@ def fene_low():
 def test_material_functions_of_a_newtonian_stress():
     """Linear regime: tau = -eta0 (kappa + kappa^T), i.e. <fQQ> = I + eta0 (kappa + kappa^T),
     gives eta = eta0, Psi1 = Psi2 = 0, planar eta_bar_1 = 4 eta0, eta_bar_2 = 2 eta0 and
-    uniaxial eta_bar = 3 eta0 (Bird, Armstrong & Hassager vol. 1, §3.3 Trouton ratios)."""
+    uniaxial eta_bar = 3 eta0 (Bird, Armstrong & Hassager vol. 1, ch. 3: Trouton ratios)."""
     eta0, rate = 0.7, 0.3
     for flow, expected in [
         ("shear", {"viscosity": eta0, "psi1": 0.0, "psi2": 0.0}),
@@ -140,7 +140,7 @@ def _transient_bound(de, flow, config):
 
 def test_hookean_exact_material_functions_at_all_shear_rates():
     """Must show 2.  Hookean dumbbells: eta_p = n k T lambda_H, Psi_1 = 2 n k T lambda_H^2
-    and Psi_2 = 0 at every shear rate (Bird et al. 1987 vol. 2, §13.4; from <QQ> = I +
+    and Psi_2 = 0 at every shear rate (Bird et al. 1987 vol. 2, ch. 13; from <QQ> = I +
     kappa.<QQ> + <QQ>.kappa^T).  The scheme's own bias is exact: eta - 1 = dt^2/16 and
     Psi_1 - 2 = O(dt^4) for every De (discrete Lyapunov equation), and the start-up
     transient of the finite run is known exactly too (the covariance map iterated from
@@ -270,7 +270,7 @@ def test_planar_elongation_never_reaches_q0_and_extension_tends_to_one():
 
 def test_planar_elongation_trouton_ratio(fene_low):
     """Must show 4.  Trouton ratio eta_bar_1 / eta_p0 = 4 in planar elongation in the
-    linear regime (Bird, Armstrong & Hassager vol. 1, §3.3; thesis §4.4).  eta_bar_1 is
+    linear regime (Bird, Armstrong & Hassager vol. 1, ch. 3; thesis §4.3.3).  eta_bar_1 is
     extrapolated to De -> 0 by a weighted fit A + C De^2 to De = 0.02, 0.04, 0.06 (the
     O(De) term vanishes by the x <-> y symmetry of planar flow; O(De^4) is < 1e-4
     relative here); eta_p0 is the measured shear viscosity at De = 0.02 (its eq. 4.6

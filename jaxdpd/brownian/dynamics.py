@@ -161,7 +161,7 @@ def wiener_increments(key, step, n, dt, dtype, noise="gaussian"):
     ``three_point``: each component is ``sqrt(3 dt) * {-1, 0, +1}`` with probabilities
     ``{1/6, 2/3, 1/6}``.  Its moments up to fifth order equal those of ``N(0, dt)``,
     which is what weak order two requires (Kloeden & Platen, *Numerical Solution of
-    SDEs* (1992), §14.2), so stationary averages converge as
+    SDEs* (1992), ch. 14), so stationary averages converge as
     with Gaussian noise; it has no density (no likelihood-ratio estimator).  The three
     components come from the base-6 digits of one 32-bit word: each probability is
     exact up to a relative bias below ``216 / 2^32 = 5e-8``.  3-4x cheaper on CPU.

@@ -14,7 +14,7 @@ flow                        kappa (rows i, columns j)                    rate
 ==========================  ===========================================  ==========
 
 All are traceless (incompressible).  Reference: Bird, Armstrong & Hassager, *Dynamics
-of Polymeric Liquids* vol. 1, 2nd ed. (1987), §3.3 (shear and shear-free flows);
+of Polymeric Liquids* vol. 1, 2nd ed. (1987), ch. 3 (shear and shear-free flows);
 Clarke thesis ch. 4 (shear and planar elongation, x stretched and y compressed).
 """
 

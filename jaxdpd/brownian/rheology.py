@@ -14,10 +14,10 @@ flow                   material function                       formula        re
 =====================  ======================================  ============== =========
 shear                  ``viscosity`` eta_p                     -tau_xy / De   eq. 4.12
 shear                  ``psi1`` Psi_1                          -(tau_xx - tau_yy) / De^2   eq. 4.13
-shear                  ``psi2`` Psi_2                          -(tau_yy - tau_zz) / De^2   BAH §3.3
-planar_elongation      ``elongational_viscosity_1`` eta_bar_1  -(tau_xx - tau_yy) / De   BAH §3.3
-planar_elongation      ``elongational_viscosity_2`` eta_bar_2  -(tau_zz - tau_yy) / De   BAH §3.3
-uniaxial_elongation    ``elongational_viscosity`` eta_bar      -(tau_xx - tau_yy) / De   BAH §3.3
+shear                  ``psi2`` Psi_2                          -(tau_yy - tau_zz) / De^2   BAH ch. 3
+planar_elongation      ``elongational_viscosity_1`` eta_bar_1  -(tau_xx - tau_yy) / De   BAH ch. 3
+planar_elongation      ``elongational_viscosity_2`` eta_bar_2  -(tau_zz - tau_yy) / De   BAH ch. 3
+uniaxial_elongation    ``elongational_viscosity`` eta_bar      -(tau_xx - tau_yy) / De   BAH ch. 3
 all                    ``q2`` <Q^2>; ``extension2`` <Q^2>/Q_0^2 (thesis Fig. 4-10);
                        ``extension`` <|Q|>/Q_0 (NaN for Hookean springs)
 =====================  ======================================  ============== =========
@@ -34,7 +34,7 @@ extension uses ``<|Q|>``, also linear).
 **Variance reduction** (``variance_reduction=True``): a twin ensemble at rest with the
 same initial connectors and the same Wiener increments is run alongside, and its
 stress is subtracted as a control variate (Bonvin & Picasso, J. Non-Newtonian Fluid
-Mech. 84, 191 (1999); Öttinger, *Stochastic Processes in Polymeric Fluids*, §4.2).  The
+Mech. 84, 191 (1999); Öttinger, *Stochastic Processes in Polymeric Fluids*, ch. 4).  The
 quantities used for material functions (off-diagonal stresses and normal-stress
 differences) have mean exactly zero at rest by isotropy, also for the discrete scheme,
 so the estimate stays unbiased, while at low De, where flow and twin trajectories stay
