@@ -138,18 +138,32 @@ def test_vmap_over_rates_and_chunking_equal_separate_runs_and_single_steps():
     assert int(single.step) == 20
 
 
-def test_float32_run_stays_float32():
-    """float32 in, float32 throughout (three-point noise in float32 is covered by the
-    planar-elongation test in test_brownian_rheology.py)."""
+def test_float32_run_stays_float32_and_below_q0():
+    """float32 in, float32 throughout, three-point noise; in planar elongation at
+    De = 1000 (De dt = 0.1, stretched to within 0.1 % of Q_0) no dumbbell reaches
+    Q >= Q_0 at any step and the rounding guard never acts (must show 3, float32)."""
     spring = FENE(50.0)
-    q0 = jax.random.normal(jax.random.key(0), (32, 3), dtype=jnp.float32)
+    q0 = jax.random.normal(jax.random.key(0), (256, 3), dtype=jnp.float32)
     state = state_from_connectors(q0, spring)
-    kappa = velocity_gradient("uniaxial_elongation", 5.0, dtype=jnp.float32)
-    final, samples = simulate(jax.random.key(1), state, kappa, spring, 1e-3, n_samples=5)
+    kappa = velocity_gradient("planar_elongation", 1000.0, dtype=jnp.float32)
+    final, samples = jax.jit(
+        lambda s: simulate(
+            jax.random.key(1),
+            s,
+            kappa,
+            spring,
+            1e-4,
+            n_samples=20,
+            sample_every=50,
+            noise="three_point",
+        )  # fmt: skip
+    )(state)
     assert final.connector.dtype == jnp.float32
     assert samples["fqq"].dtype == jnp.float32
     assert np.all(np.isfinite(final.connector))
     assert float(jnp.max(final.max_extension2)) < 1
+    assert int(jnp.sum(final.guard_hits)) == 0
+    assert float(samples["q2"][-1]) / 50.0 > 0.99  # stretched
 
 
 def test_three_point_increments_have_gaussian_moments():

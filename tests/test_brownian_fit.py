@@ -94,7 +94,7 @@ def test_sensitivity_of_equilibrium_size_pathwise_and_likelihood_ratio():
 
 def test_fit_recovers_b_from_wrong_start():
     """Must show 5.  Synthetic targets: planar elongation at De = 2 and 5 for b = 50
-    (eta_bar_1, eta_bar_2 and extension, 1024 dumbbells, independent noise).  An optax
+    (eta_bar_1, eta_bar_2 and extension, 512 dumbbells, independent noise).  An optax
     L-BFGS fit of log b from b = 20, with pathwise (forward-mode) gradients of a
     64-dumbbell model, recovers b = 50 within 2 %."""
     targets = [
@@ -103,7 +103,7 @@ def test_fit_recovers_b_from_wrong_start():
             "planar_elongation",
             [2.0, 5.0],
             FENE(B),
-            n_dumbbells=1024,
+            n_dumbbells=512,
             dt=0.01,
             n_equilibrate=400,
             n_samples=40,

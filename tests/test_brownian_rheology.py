@@ -223,7 +223,8 @@ def test_fene_low_shear_rate_expansion(fene_low):
 def test_planar_elongation_never_reaches_q0_and_extension_tends_to_one():
     """Must show 3.  In planar elongation up to De = 1000 no dumbbell ever reaches
     Q >= Q_0 (running maximum of Q^2/Q_0^2 over every step and dumbbell; the rounding
-    guard never acts), in float64 and float32 with De dt = 0.1.  With absurd steps
+    guard never acts), in float64 with De dt = 0.1 (float32: test_brownian_dynamics.py,
+    test_float32_run_stays_float32_and_below_q0).  With absurd steps
     (De dt = 10, up to 10 lambda_H per step) the half-explicit spring force overshoots,
     the corrector's root comes within rounding of Q_0, and the guard keeps Q strictly
     below Q_0 (and finite); there only the bound is checked.
@@ -249,12 +250,6 @@ def test_planar_elongation_never_reaches_q0_and_extension_tends_to_one():
     assert np.all(np.isfinite(curve.values["extension2"]))
     moderate, accurate = slice(0, 4), slice(8, 10)
     assert np.all(curve.guard_hits[moderate] == 0) and np.all(curve.guard_hits[accurate] == 0)
-    curve32 = flow_curve(
-        jax.random.key(5), "planar_elongation", rates, FENE(B), dt=0.1 / rates,
-        dtype=jnp.float32, noise="three_point", **config,
-    )  # fmt: skip
-    assert curve32.values["extension2"].dtype == np.float32
-    assert np.all(curve32.max_extension2 < 1) and np.all(curve32.guard_hits == 0)
 
     # extension grows with De (at De dt = 0.1 the highest rates are biased low: accuracy
     # near full stretch needs sqrt(dt) <~ sqrt(b)/(4 De), i.e. dt <~ 1e-5 at De = 1000)
