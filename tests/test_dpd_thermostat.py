@@ -20,7 +20,7 @@ INTEGRATOR_BIAS_BOUND = 0.01 * 0.01 / 0.04
 def test_temperature_and_maxwellian_velocities_at_dt_001():
     scene = make_scene(
         precision="float32",
-        particles={"count": 1500},
+        particles={"count": 1000},
         integrator={"dt": 0.01, "lambda": 0.65},
         output={"observables": ["temperature"]},
     )
@@ -34,7 +34,7 @@ def test_temperature_and_maxwellian_velocities_at_dt_001():
 
     # Chunks of 2.5 time units ≫ the velocity relaxation time (~0.2): independent
     # velocity snapshots.
-    driver.run(simulation, state, 3000, 250, on_chunk=collect)
+    driver.run(simulation, state, 2500, 250, on_chunk=collect)
     series = np.concatenate(temperatures)
     mean, error = block_average(series.astype(np.float64), n_blocks=20)
     tolerance = 4 * float(error) + INTEGRATOR_BIAS_BOUND
