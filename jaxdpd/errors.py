@@ -7,12 +7,23 @@ after each chunk.
 NEIGHBOR_OVERFLOW = 1
 NON_FINITE = 2
 TEMPERATURE_RUNAWAY = 4
+SPRING_OVERSTRETCHED = 8
+SPRING_PAST_HALF_BOX = 16
 
 # A kinetic temperature this many times the set value means the integration is
 # unstable (thermostatted DPD stays within a few per cent of it).
 RUNAWAY_FACTOR = 100.0
 
 MESSAGES = {
+    SPRING_OVERSTRETCHED: (
+        "a FENE spring reached its maximum extension (|Q| ≥ Q0): the time step is too "
+        "large for the spring's stiffness near full extension (reduce integrator.dt)"
+    ),
+    SPRING_PAST_HALF_BOX: (
+        "a spring became longer than half a box edge, so its periodic image is "
+        "ambiguous: enlarge the box, or use finitely extensible (FENE) springs with "
+        "max_extension below half the shortest edge"
+    ),
     NEIGHBOR_OVERFLOW: "neighbour list overflow (buffers too small)",
     NON_FINITE: (
         "non-finite positions, velocities or forces: the integration became unstable; "

@@ -1,8 +1,9 @@
 """Time integrators.  Each factory returns `step(state) -> state`.
 
-`interactions(positions, velocities, state) -> (vectors, virial, pair_list)` is the
-composed pair kernel of the scene (forces for velocity Verlet, impulses for the
-Hoogerbrugge–Koelman collision); it refreshes the neighbour list itself.
+`interactions(positions, velocities, state) -> (vectors, virial, pair_list, bits)` is
+the composed force kernel of the scene (forces for velocity Verlet, impulses for the
+Hoogerbrugge–Koelman collision); it refreshes the neighbour list itself and reports
+error bits of its own (e.g. an overstretched spring).
 """
 
 import jax.numpy as jnp
@@ -10,10 +11,11 @@ import jax.numpy as jnp
 from jaxdpd import errors
 
 
-def _flag(state, positions, velocities, pair_list, kT):
+def _flag(state, positions, velocities, pair_list, kT, bits):
     """OR the error bits of this step into the state's flags.
 
     Args:
+        bits: error bits the force kernel reported.
         kT: the set temperature (unit masses); a mean v² above
             RUNAWAY_FACTOR · 3 kT flags a runaway.
     """
@@ -24,6 +26,7 @@ def _flag(state, positions, velocities, pair_list, kT):
         jnp.where(finite, 0, errors.NON_FINITE)
         | jnp.where(runaway, errors.TEMPERATURE_RUNAWAY, 0)
         | jnp.where(pair_list.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        | bits
     )
     return state.flags | bits.astype(jnp.int32)
 
@@ -49,7 +52,7 @@ def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, kT: f
         positions, image = box.wrap(moved, state.image)
         predicted = state.velocities + (lam * dt_) * forces
         advanced = state.set(positions=positions, image=image, step=state.step + 1)
-        new_forces, virial, pair_list = interactions(positions, predicted, advanced)
+        new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
         velocities = state.velocities + (0.5 * dt_) * (forces + new_forces)
         return advanced.set(
             velocities=velocities,
@@ -57,7 +60,7 @@ def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, kT: f
             pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT),
+            flags=_flag(state, positions, velocities, pair_list, kT, bits),
         )
 
     return step
@@ -74,7 +77,7 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
     dt_ = jnp.asarray(dt, dtype)
 
     def step(state):
-        impulses, virial, pair_list = interactions(state.positions, state.velocities, state)
+        impulses, virial, pair_list, bits = interactions(state.positions, state.velocities, state)
         velocities = state.velocities + impulses
         positions, image = box.wrap(state.positions + dt_ * velocities, state.image)
         return state.set(
@@ -85,7 +88,7 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
             virial=virial / dt_,
             step=state.step + 1,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT),
+            flags=_flag(state, positions, velocities, pair_list, kT, bits),
         )
 
     return step

@@ -13,6 +13,7 @@ import numpy as np
 
 from jaxdpd import driver
 from jaxdpd.io.h5md import H5MDWriter
+from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
@@ -30,6 +31,9 @@ class RunSummary:
         state: the final SimState.
         steady_rate: particle-steps/s after the first chunk (which compiles), or
             NaN for a single-chunk run.
+        averages: name -> (mean, standard error) of the scalar series.
+        references: name -> exact value of that series for ideal chains (no pair
+            forces), shown beside the measured mean.
     """
 
     series: dict
@@ -40,18 +44,21 @@ class RunSummary:
     n_particles: int = 0
     steady_rate: float = float("nan")
     averages: dict = field(default_factory=dict)
+    references: dict = field(default_factory=dict)
 
     def table(self) -> str:
         """Mean ± standard error (20 block averages) of each scalar series."""
-        rows = [f"{'observable':<24}{'mean':>14}{'± s.e.':>12}"]
+        rows = [f"{'observable':<30}{'mean':>14}{'± s.e.':>12}{'ideal chain':>14}"]
         for name, (mean, error) in self.averages.items():
-            rows.append(f"{name:<24}{mean:>14.6g}{error:>12.2g}")
-        rows.append(f"{'particle-steps/s':<24}{self.steady_rate:>14.4g}{'(compiled)':>12}")
+            reference = self.references.get(name)
+            ideal = f"{reference:>14.6g}" if reference is not None else ""
+            rows.append(f"{name:<30}{mean:>14.6g}{error:>12.2g}{ideal}")
+        rows.append(f"{'particle-steps/s':<30}{self.steady_rate:>14.4g}{'(compiled)':>12}")
         if self.rdf is not None:
             r, g = self.rdf
             peak = int(np.nanargmax(g))
-            rows.append(f"{'g(r) first peak at r':<24}{r[peak]:>14.4g}{'':>12}")
-            rows.append(f"{'g(r) first peak height':<24}{g[peak]:>14.4g}")
+            rows.append(f"{'g(r) first peak at r':<30}{r[peak]:>14.4g}")
+            rows.append(f"{'g(r) first peak height':<30}{g[peak]:>14.4g}")
         return "\n".join(rows)
 
 
@@ -170,4 +177,5 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
         (t0, s0), (t1, s1) = chunk_ends[0], chunk_ends[-1]
         summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
     summary.averages = _averages(series)
+    summary.references = ideal_references(simulation.blocks, scene.solvent.kT)
     return summary

@@ -18,12 +18,20 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
                 {"A-B" = a_AB, ...} over species names (dpd only)
+    [[polymers]] species = name of a particle species whose particles are chained,
+                beads = beads per linear chain (≥ 2; the species count must be a
+                multiple, fractions are rounded to one); bond = {law, ...} with
+                law = "hookean" (spring_constant) | "fraenkel" (spring_constant,
+                rest_length) | "fene" (spring_constant, max_extension) |
+                "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
+                wca_sigma = 1); dpd solvents only
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf"}; rdf_bins, rdf_max; trajectory_every (0 = never)
+                "pressure", "rdf", "conformation"}; rdf_bins, rdf_max;
+                trajectory_every (0 = never)
 """
 
 import json
@@ -32,6 +40,7 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 
 from jaxdpd.validation import (
+    REQUIRED,
     check_keys,
     read_choice,
     read_list,
@@ -44,7 +53,7 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-OBSERVABLES = ("temperature", "pressure", "rdf")
+OBSERVABLES = ("temperature", "pressure", "rdf", "conformation")
 
 
 @dataclass(frozen=True)
@@ -99,6 +108,27 @@ class Pair:
 
 
 @dataclass(frozen=True)
+class Polymer:
+    """Linear bead-spring chains made of all particles of one species.
+
+    Attributes:
+        species: the species name; its particles, in index order, form the chains
+            bead after bead.
+        beads: beads per chain M (M − 1 springs).
+        bond: the bond law's table: {"law": name, parameter: value, ...}.
+    """
+
+    species: str
+    beads: int
+    bond: tuple[tuple[str, object], ...]
+
+    @property
+    def bond_parameters(self) -> dict:
+        """The bond table as a dictionary."""
+        return dict(self.bond)
+
+
+@dataclass(frozen=True)
 class Integrator:
     """Time step and the λ of the modified velocity-Verlet scheme (thesis eq. 2.10)."""
 
@@ -148,6 +178,7 @@ class Scene:
     solvent: Solvent
     pair: Pair | None
     integrator: Integrator
+    polymers: tuple[Polymer, ...] = ()
     neighbors: Neighbors = field(default_factory=Neighbors)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
@@ -182,6 +213,7 @@ class Scene:
                 "solvent",
                 "pair",
                 "integrator",
+                "polymers",
                 "neighbors",
                 "run",
                 "output",
@@ -199,7 +231,13 @@ class Scene:
         check_keys(box_section, ("kind", "lengths"), "box")
         box_kind = read_choice(box_section, "kind", "box", ("periodic",), "periodic")
         lengths = _read_lengths(box_section)
-        particles, lengths = _read_particles(data.get("particles"), lengths)
+        polymer_entries = _polymer_entries(data.get("polymers", []))
+        chain_lengths = {
+            entry["species"]: entry["beads"]
+            for entry in polymer_entries
+            if isinstance(entry.get("species"), str) and isinstance(entry.get("beads"), int)
+        }
+        particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
         list_cutoff = cutoff + neighbors.skin
         for axis, length in zip("xyz", lengths, strict=True):
             if not length > 2 * list_cutoff:
@@ -209,7 +247,14 @@ class Scene:
                 )
         pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
+        polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
         run = _read_run(data.get("run", {}))
+        output = _read_output(data.get("output", {}), lengths, run.chunk)
+        if "conformation" in output.observables and not polymers:
+            raise ValueError(
+                "output.observables: 'conformation' measures polymers; add a [[polymers]] "
+                "section or remove it"
+            )
         return cls(
             seed=seed,
             precision=precision,
@@ -219,9 +264,10 @@ class Scene:
             solvent=solvent,
             pair=pair,
             integrator=integrator,
+            polymers=polymers,
             neighbors=neighbors,
             run=run,
-            output=_read_output(data.get("output", {}), lengths, run.chunk),
+            output=output,
         )
 
     # -- derived quantities --------------------------------------------------------
@@ -254,6 +300,12 @@ class Scene:
             del data["pair"]
         else:
             data["pair"] = {"kind": self.pair.kind, "a": [list(row) for row in self.pair.a]}
+        data["polymers"] = [
+            {"species": p.species, "beads": p.beads, "bond": p.bond_parameters}
+            for p in self.polymers
+        ]
+        if not self.polymers:
+            del data["polymers"]
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
         data["output"]["observables"] = list(self.output.observables)
@@ -357,7 +409,7 @@ def _read_lengths(box_section):
     )
 
 
-def _read_particles(section, lengths):
+def _read_particles(section, lengths, chain_lengths: dict):
     if section is None:
         raise ValueError("particles: required section is missing (give density and/or count)")
     check_keys(section, ("density", "count", "species"), "particles")
@@ -389,11 +441,13 @@ def _read_particles(section, lengths):
         side = (count / density) ** (1.0 / 3.0)
         lengths = (side, side, side)
         density = count / math.prod(lengths)
-    species = _read_species(section.get("species", [{"name": "solvent"}]), count)
+    species = _read_species(section.get("species", [{"name": "solvent"}]), count, chain_lengths)
     return Particles(count=count, density=density, species=species), lengths
 
 
-def _read_species(entries, total: int) -> tuple[Species, ...]:
+def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ...]:
+    """Species with resolved counts; a species chained into polymers of M beads gets
+    a count that is a multiple of M (fractions are rounded to the nearest one)."""
     if not isinstance(entries, list) or not entries:
         raise TypeError("particles.species: expected a non-empty list of {name, count|fraction}")
     names, counts, fractions = [], [], []
@@ -419,7 +473,10 @@ def _read_species(entries, total: int) -> tuple[Species, ...]:
     if all(f is not None for f in fractions):
         if not math.isclose(sum(fractions), 1.0, abs_tol=1e-9):
             raise ValueError(f"particles.species: fractions sum to {sum(fractions)}, must be 1")
-        resolved = [round(f * total) for f in fractions[:-1]]
+        resolved = [
+            chain_lengths.get(n, 1) * round(f * total / chain_lengths.get(n, 1))
+            for n, f in zip(names[:-1], fractions[:-1], strict=True)
+        ]
         resolved.append(total - sum(resolved))
         return tuple(Species(n, c) for n, c in zip(names, resolved, strict=True))
     raise ValueError("particles.species: give every species a count, or every one a fraction")
@@ -477,6 +534,88 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
     else:
         raise TypeError(f"pair.a: expected a number, list or table, got {type(a).__name__}")
     return Pair(kind, tuple(tuple(row) for row in matrix))
+
+
+BOND_PARAMETERS = {
+    "hookean": {"spring_constant": REQUIRED},
+    "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
+    "fene": {"spring_constant": REQUIRED, "max_extension": REQUIRED},
+    "fene_log_wca": {
+        "spring_constant": REQUIRED,
+        "max_extension": REQUIRED,
+        "wca_epsilon": 1.0,
+        "wca_sigma": 1.0,
+    },
+}
+
+
+def _polymer_entries(entries) -> list:
+    if not isinstance(entries, list):
+        raise TypeError(
+            f"polymers: expected a list of tables ([[polymers]] in TOML), got "
+            f"{type(entries).__name__}"
+        )
+    for k, entry in enumerate(entries):
+        check_keys(entry, ("species", "beads", "bond"), f"polymers[{k}]")
+    return entries
+
+
+def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
+    if entries and solvent.method != "dpd":
+        raise ValueError(
+            f"polymers: bead-spring chains need solvent.method = 'dpd' (got {solvent.method!r})"
+        )
+    counts = {s.name: s.count for s in species}
+    polymers, used = [], set()
+    for k, entry in enumerate(entries):
+        path = f"polymers[{k}]"
+        name = read_string(entry, "species", path)
+        if name not in counts:
+            raise ValueError(
+                f"{path}.species = {name!r}: not a particle species; species are {list(counts)}"
+            )
+        if name in used:
+            raise ValueError(f"{path}.species = {name!r}: already chained by another entry")
+        used.add(name)
+        beads = read_number(entry, "beads", path, minimum=2, integer=True)
+        if counts[name] == 0 or counts[name] % beads:
+            raise ValueError(
+                f"particles.species {name!r}: {counts[name]} particles do not make whole "
+                f"chains of {path}.beads = {beads}; give a count that is a positive multiple "
+                f"of {beads}"
+            )
+        bond = _read_bond(entry.get("bond"), f"{path}.bond", lengths)
+        polymers.append(Polymer(name, beads, tuple(bond.items())))
+    return tuple(polymers)
+
+
+def _read_bond(section, path: str, lengths) -> dict:
+    if section is None:
+        raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
+    check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
+    law = read_choice(section, "law", path, tuple(BOND_PARAMETERS))
+    defaults = BOND_PARAMETERS[law]
+    misplaced = sorted(set(section) - {"law", *defaults})
+    if misplaced:
+        raise ValueError(f"{path}: {misplaced} are not parameters of law {law!r}")
+    bond = {"law": law}
+    for key, default in defaults.items():
+        strictly_positive = key != "rest_length" and key != "wca_epsilon"
+        bond[key] = read_number(
+            section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
+        )
+    if "max_extension" in bond and not bond["max_extension"] < min(lengths) / 2:
+        raise ValueError(
+            f"{path}.max_extension = {bond['max_extension']}: a spring must stay shorter "
+            f"than half the shortest box edge ({min(lengths) / 2:.4g}; thesis §3.2.3); "
+            "enlarge the box or shorten the spring"
+        )
+    if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
+        raise ValueError(
+            f"{path}: the WCA range 2^(1/6) wca_sigma = {2 ** (1 / 6) * bond['wca_sigma']:.4g} "
+            f"must be below max_extension = {bond['max_extension']}"
+        )
+    return bond
 
 
 def _read_integrator(section, solvent: Solvent) -> Integrator:

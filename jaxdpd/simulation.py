@@ -2,7 +2,8 @@
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, without "pressure"
-no virial, and with no pair term at all no neighbour search.
+no virial, without [[polymers]] no bond kernel, and with no pair term at all no
+neighbour search.
 """
 
 import functools
@@ -12,17 +13,21 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 
-from jaxdpd import noise
+from jaxdpd import errors, noise
+from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.pairs import soft_repulsion_term
 from jaxdpd.pairwise import accumulate, pair_geometry
+from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
 from jaxdpd.thermostats.dpd import groot_warren_term
 from jaxdpd.thermostats.hoogerbrugge_koelman import hoogerbrugge_koelman_term
+from jaxdpd.topology import chain_blocks
 
 
 @dataclass(frozen=True)
@@ -41,6 +46,7 @@ class Simulation:
     Attributes:
         scene: the scene it was built from.
         box: the periodic box.
+        blocks: the polymer chain blocks (jaxdpd.topology.ChainBlock), maybe empty.
         dtype: floating dtype of positions, velocities and forces.
         neighbor_search: the neighbour backend (None when no pair term exists).
         init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
@@ -53,6 +59,7 @@ class Simulation:
 
     scene: Scene
     box: PeriodicBox
+    blocks: tuple
     dtype: object
     neighbor_search: NeighborSearch | None
     init_fn: Callable
@@ -95,6 +102,7 @@ def build(scene: Scene) -> Simulation:
     box = PeriodicBox(tuple(scene.box.lengths))
     n = scene.n_particles
     terms = pair_terms(scene, dtype)
+    blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
     search = None
     if terms:
@@ -107,7 +115,7 @@ def build(scene: Scene) -> Simulation:
             scene.neighbors.format,
         )
 
-    def interactions(positions, velocities, state):
+    def pair_interactions(positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial, refreshed pair list."""
         if not terms:
             zeros = jnp.zeros_like(positions)
@@ -121,6 +129,27 @@ def build(scene: Scene) -> Simulation:
         if virial is None:
             virial = jnp.zeros((3, 3), dtype)
         return vectors, virial, pair_list
+
+    def interactions(positions, velocities, state):
+        """Pair terms plus the springs of every chain block.
+
+        Returns:
+            (per-particle vectors, virial, refreshed pair list, error bits).
+        """
+        vectors, virial, pair_list = pair_interactions(positions, velocities, state)
+        bits = jnp.asarray(0, jnp.int32)
+        for block in blocks:
+            bonded = chain_bond_forces(
+                box, block.take(positions), block.take(state.image), block.law, with_virial
+            )
+            vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
+            virial = virial + bonded.virial
+            bits = (
+                bits
+                | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
+                | jnp.where(bonded.past_half_box, errors.SPRING_PAST_HALF_BOX, 0)
+            )
+        return vectors, virial, pair_list, bits
 
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
@@ -138,7 +167,10 @@ def build(scene: Scene) -> Simulation:
 
     def step_fn(state):
         state = advance(state)
-        return state, step_samples(observables, state)
+        samples = step_samples(observables, state)
+        if "conformation" in observables:
+            samples.update(conformation_samples(box, state.positions, blocks))
+        return state, samples
 
     def allocate_pairs(positions, minimum=None):
         if search is None:
@@ -146,12 +178,12 @@ def build(scene: Scene) -> Simulation:
         return search.allocate(positions, scene.neighbors.capacity_multiplier, minimum)
 
     def init_fn():
-        positions, velocities, species = initial_configuration(scene, box, dtype)
+        positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
         state = SimState(
             positions=positions,
             velocities=velocities,
             forces=jnp.zeros_like(positions),
-            image=jnp.zeros((n, 3), jnp.int32),
+            image=image,
             species=species,
             pair_list=allocate_pairs(positions),
             virial=jnp.zeros((3, 3), dtype),
@@ -161,36 +193,14 @@ def build(scene: Scene) -> Simulation:
             flags=jnp.asarray(0, jnp.int32),
         )
         if scene.solvent.method == "dpd":
-            forces, virial, pair_list = jax.jit(interactions)(positions, velocities, state)
-            state = state.set(forces=forces, virial=virial, pair_list=pair_list)
+            forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
+            state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
         return state
 
     def reallocate(state, minimum):
         return state.set(pair_list=allocate_pairs(state.positions, minimum))
 
-    return Simulation(scene, box, dtype, search, init_fn, step_fn, reallocate)
-
-
-def initial_configuration(scene: Scene, box: PeriodicBox, dtype):
-    """Uniformly random positions, Maxwell–Boltzmann velocities with zero total
-    momentum (k_BT of the solvent, 1 for Hoogerbrugge–Koelman), species in blocks.
-
-    Returns:
-        positions (N, 3), velocities (N, 3), species (N,) int32.
-    """
-    n = scene.n_particles
-    key_positions, key_velocities = jax.random.split(jax.random.PRNGKey(scene.seed))
-    lengths = box.lengths_array(dtype)
-    positions = jax.random.uniform(key_positions, (n, 3), dtype) * lengths
-    positions, _ = box.wrap(positions, jnp.zeros((n, 3), jnp.int32))
-    kT = scene.solvent.kT if scene.solvent.method == "dpd" else 1.0
-    velocities = jax.random.normal(key_velocities, (n, 3), dtype) * jnp.sqrt(jnp.asarray(kT, dtype))
-    velocities = velocities - jnp.mean(velocities, axis=0)
-    counts = [s.count for s in scene.particles.species]
-    species = jnp.repeat(
-        jnp.arange(len(counts), dtype=jnp.int32), jnp.asarray(counts), total_repeat_length=n
-    )
-    return positions, velocities, species
+    return Simulation(scene, box, blocks, dtype, search, init_fn, step_fn, reallocate)
 
 
 def _empty_pair_list(positions):

@@ -8,6 +8,8 @@ range, before anything is traced.
 import math
 
 _MISSING = object()
+# Pass as `default` to make a field required (the readers' default).
+REQUIRED = _MISSING
 
 
 def check_keys(section: dict, allowed, path: str) -> None:

@@ -43,8 +43,9 @@ def step_samples(observables, state):
 
 
 def reduce_samples(samples: dict, n_particles: int, volume: float) -> dict:
-    """Per-step kinetic/virial tensors → named time series (NumPy, host side)."""
-    series = {}
+    """Per-step kinetic/virial tensors → named time series (NumPy, host side); other
+    samples (already named series, e.g. conformation) pass through unchanged."""
+    series = {name: values for name, values in samples.items() if name not in ("kinetic", "virial")}
     if "kinetic" in samples:
         series["temperature"] = temperature(samples["kinetic"], n_particles)
     if "virial" in samples:

@@ -1,0 +1,237 @@
+"""Bond laws of bead-spring polymers and the bonded force on linear chains.
+
+Each law is a scalar law in the squared spring length q² = |Q|²: its `stiffness`
+T(Q)/Q (tension per unit length, positive = the spring pulls its beads together)
+and its `energy` U(Q).  The force on bead k of the spring Q = r_{k+1} − r_k is
++(T/Q) Q and on bead k+1 it is −(T/Q) Q, so T = dU/dQ.  Working in q² avoids a
+square root for the Hookean and FENE laws and keeps the laws smooth at Q = 0.
+
+Laws (H, K, k: spring constants in k_BT/r_c²; Q0, R0, r_eq, σ: lengths in r_c):
+    hookean       T = H Q,  U = ½ H Q²                            (thesis eq. 2.25)
+    fraenkel      T = K (Q − r_eq),  U = ½ K (Q − r_eq)²           (a harmonic bond with
+                  rest length; Mussawisade et al. eq. 4 with κ = K, l = r_eq)
+    fene          T = H Q / (1 − Q²/Q0²),
+                  U = −½ H Q0² ln(1 − Q²/Q0²)              (Warner; thesis eqs. 2.26, 4.2)
+    fene_log_wca  U = −½ k R0² ln(1 − Q²/R0²) + 4ε[(σ/Q)¹² − (σ/Q)⁶ + ¼] for Q < 2^{1/6}σ
+                  (Kremer–Grest; Ahlrichs & Dünweg eq. 8), the WCA part acting between
+                  the bonded beads (as in LAMMPS `bond_style fene`)
+
+A FENE spring cannot reach Q0: where a step takes it there the stiffness is
+evaluated at a floor of the denominator (finite), and `overstretched` reports it so
+that the driver stops with a message instead of producing NaNs.
+"""
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import jax.numpy as jnp
+
+# 1 − Q²/Q0² is floored here when a FENE spring is at or past Q0 (the step is
+# flagged and the run stops at the end of the chunk).
+FENE_DENOMINATOR_FLOOR = 1e-6
+
+BOND_LAWS = ("hookean", "fraenkel", "fene", "fene_log_wca")
+
+
+@dataclass(frozen=True)
+class BondLaw:
+    """A bond law with its parameters bound.
+
+    Attributes:
+        name: one of BOND_LAWS.
+        parameters: the scene's parameters of the law (name → value).
+        stiffness: `stiffness(q_sq) -> T/Q`, elementwise, any float array.
+        energy: `energy(q_sq) -> U`, elementwise (for tests and diagnostics).
+        max_extension: Q0 (or R0) for finitely extensible laws, else None.
+        placement_length: a bond length to build chains with: where the law's
+            energy is lowest if that is away from zero, else the root-mean-square
+            length of a free spring at k_BT.
+    """
+
+    name: str
+    parameters: dict
+    stiffness: Callable
+    energy: Callable
+    max_extension: float | None
+    placement_length: float
+
+
+def hookean(spring_constant: float, kT: float) -> BondLaw:
+    """Hookean spring T = H Q; free ⟨Q²⟩ = 3 k_BT/H."""
+    h = spring_constant
+    return BondLaw(
+        "hookean",
+        {"spring_constant": h},
+        lambda q_sq: h * jnp.ones_like(q_sq),
+        lambda q_sq: 0.5 * h * q_sq,
+        None,
+        math.sqrt(3 * kT / h),
+    )
+
+
+def fraenkel(spring_constant: float, rest_length: float, kT: float) -> BondLaw:
+    """Fraenkel (harmonic, rest length r_eq) spring T = K (Q − r_eq).
+
+    Its direction is undefined at Q = 0 when r_eq > 0; there the stiffness is taken
+    at a tiny length instead (a configuration that thermal motion never reaches).
+    """
+    k, rest = spring_constant, rest_length
+
+    def stiffness(q_sq):
+        length = jnp.sqrt(jnp.maximum(q_sq, jnp.finfo(q_sq.dtype).tiny))
+        return k * (1 - rest / length)
+
+    def energy(q_sq):
+        return 0.5 * k * (jnp.sqrt(q_sq) - rest) ** 2
+
+    placement = rest if rest > 0 else math.sqrt(3 * kT / k)
+    return BondLaw(
+        "fraenkel",
+        {"spring_constant": k, "rest_length": rest},
+        stiffness,
+        energy,
+        None,
+        placement,
+    )
+
+
+def _fene_stiffness(q_sq, spring_constant, max_extension):
+    """k / max(1 − Q²/Q0², floor)."""
+    denominator = 1 - q_sq / (max_extension * max_extension)
+    return spring_constant / jnp.maximum(denominator, FENE_DENOMINATOR_FLOOR)
+
+
+def _fene_energy(q_sq, spring_constant, max_extension):
+    """−½ k Q0² ln(1 − Q²/Q0²) (infinite at and past Q0)."""
+    q0_sq = max_extension * max_extension
+    return -0.5 * spring_constant * q0_sq * jnp.log1p(-q_sq / q0_sq)
+
+
+def fene(spring_constant: float, max_extension: float, kT: float) -> BondLaw:
+    """Warner FENE spring; placed at its exact free ⟨Q²⟩ = 3 Q0²/(b + 5), b = H Q0²/k_BT
+    (thesis eq. 4.8)."""
+    h, q0 = spring_constant, max_extension
+    b = h * q0 * q0 / kT
+    return BondLaw(
+        "fene",
+        {"spring_constant": h, "max_extension": q0},
+        lambda q_sq: _fene_stiffness(q_sq, h, q0),
+        lambda q_sq: _fene_energy(q_sq, h, q0),
+        q0,
+        q0 * math.sqrt(3 / (b + 5)),
+    )
+
+
+def fene_log_wca(
+    spring_constant: float, max_extension: float, wca_epsilon: float, wca_sigma: float
+) -> BondLaw:
+    """Kremer–Grest bond: FENE log potential plus the WCA repulsion between the
+    bonded beads (Ahlrichs & Dünweg eq. 8)."""
+    k, r0, eps, sigma = spring_constant, max_extension, wca_epsilon, wca_sigma
+    wca_range_sq = 2 ** (1 / 3) * sigma * sigma
+
+    def wca_parts(q_sq):
+        inside = q_sq < wca_range_sq
+        s6 = (sigma * sigma / jnp.where(inside, q_sq, wca_range_sq)) ** 3
+        return inside, s6
+
+    def stiffness(q_sq):
+        inside, s6 = wca_parts(q_sq)
+        # −(dU_WCA/dQ)/Q = 24 ε (2 s¹² − s⁶)/Q² is a push: negative tension.
+        wca = jnp.where(inside, -24 * eps * (2 * s6 * s6 - s6) / q_sq, 0)
+        return _fene_stiffness(q_sq, k, r0) + wca
+
+    def energy(q_sq):
+        inside, s6 = wca_parts(q_sq)
+        wca = jnp.where(inside, 4 * eps * (s6 * s6 - s6 + 0.25), 0)
+        return _fene_energy(q_sq, k, r0) + wca
+
+    lengths = [r0 * x / 1000 for x in range(1, 1000)]
+    energies = [
+        -0.5 * k * r0 * r0 * math.log1p(-((q / r0) ** 2))
+        + (4 * eps * ((sigma / q) ** 12 - (sigma / q) ** 6 + 0.25) if q * q < wca_range_sq else 0)
+        for q in lengths
+    ]
+    return BondLaw(
+        "fene_log_wca",
+        {
+            "spring_constant": k,
+            "max_extension": r0,
+            "wca_epsilon": eps,
+            "wca_sigma": sigma,
+        },
+        stiffness,
+        energy,
+        r0,
+        lengths[energies.index(min(energies))],
+    )
+
+
+def bond_law(parameters: dict, kT: float) -> BondLaw:
+    """The law named by a scene's `polymers[k].bond` table (validated beforehand)."""
+    name = parameters["law"]
+    if name == "hookean":
+        return hookean(parameters["spring_constant"], kT)
+    if name == "fraenkel":
+        return fraenkel(parameters["spring_constant"], parameters["rest_length"], kT)
+    if name == "fene":
+        return fene(parameters["spring_constant"], parameters["max_extension"], kT)
+    if name == "fene_log_wca":
+        return fene_log_wca(
+            parameters["spring_constant"],
+            parameters["max_extension"],
+            parameters["wca_epsilon"],
+            parameters["wca_sigma"],
+        )
+    raise ValueError(f"bond.law = {name!r}: valid laws are {list(BOND_LAWS)}")
+
+
+@dataclass(frozen=True)
+class ChainBondResult:
+    """Bonded forces of one block of chains.
+
+    Attributes:
+        forces: (C, M, 3) force on every bead.
+        virial: (3, 3) Σ_springs r_ij ⊗ F_ij = −Σ Q ⊗ (T/Q) Q.
+        overstretched: bool, some FENE spring at or past its maximum extension.
+        past_half_box: bool, some spring's minimum image disagrees with its beads'
+            image counters (the spring is longer than half a box edge).
+    """
+
+    forces: jnp.ndarray
+    virial: jnp.ndarray
+    overstretched: jnp.ndarray
+    past_half_box: jnp.ndarray
+
+
+def chain_bond_forces(box, positions, image, law: BondLaw, with_virial: bool):
+    """Spring forces of linear chains stored bead after bead.
+
+    Args:
+        box: the periodic box (spring vectors by minimum image, thesis eq. 3.4).
+        positions: (C, M, 3) wrapped bead positions of C chains of M beads.
+        image: (C, M, 3) int32 image counters of the beads.
+        law: the bond law.
+        with_virial: whether to compute the virial (else zeros).
+    Returns:
+        ChainBondResult.
+    """
+    separation = positions[:, 1:] - positions[:, :-1]
+    springs = box.minimum_image_vectors(separation)
+    lengths = box.lengths_array(positions.dtype)
+    by_image = separation + (image[:, 1:] - image[:, :-1]).astype(positions.dtype) * lengths
+    past_half_box = jnp.any(jnp.abs(by_image - springs) > 0.5 * lengths)
+    q_sq = jnp.sum(springs * springs, axis=-1)
+    pull = law.stiffness(q_sq)[..., None] * springs
+    zeros = jnp.zeros_like(pull[:, :1])
+    forces = jnp.concatenate([pull, zeros], axis=1) - jnp.concatenate([zeros, pull], axis=1)
+    if law.max_extension is None:
+        overstretched = jnp.asarray(False)
+    else:
+        overstretched = jnp.any(q_sq >= law.max_extension**2)
+    if with_virial:
+        virial = -jnp.einsum("cka,ckb->ab", springs, pull)
+    else:
+        virial = jnp.zeros((3, 3), positions.dtype)
+    return ChainBondResult(forces, virial, overstretched, past_half_box)

@@ -1,0 +1,105 @@
+"""Bond laws: forces are −∇U (autodiff), Newton's third law, FENE limits.
+
+Reference: each law's potential as written in jaxdpd.bonds (thesis eqs. 2.25, 2.26;
+Mussawisade et al. eq. 4; Ahlrichs & Dünweg eq. 8).
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxdpd  # noqa: F401  (enables float64)
+from jaxdpd import bonds
+from jaxdpd.boxes import PeriodicBox
+
+LAWS = {
+    "hookean": bonds.hookean(2.0, kT=1.0),
+    "fraenkel": bonds.fraenkel(30.0, 0.8, kT=1.0),
+    "fene": bonds.fene(0.5, 5.0, kT=1.0),
+    "fene_log_wca": bonds.fene_log_wca(30.0, 1.5, 1.0, 1.0),
+}
+BOX = PeriodicBox((12.0, 13.0, 14.0))
+
+
+def _chains(seed, n_chains=5, beads=6):
+    """Random-walk chains with steps of random direction and length in [0.5, 1.2]
+    (below every law's maximum extension)."""
+    rng = np.random.default_rng(seed)
+    directions = rng.normal(size=(n_chains, beads - 1, 3))
+    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+    steps = directions * rng.uniform(0.5, 1.2, (n_chains, beads - 1, 1))
+    start = rng.uniform(0, 12, (n_chains, 1, 3))
+    unwrapped = np.concatenate([start, start + np.cumsum(steps, axis=1)], axis=1)
+    lengths = np.asarray(BOX.lengths)
+    image = np.floor(unwrapped / lengths).astype(np.int32)
+    return jnp.asarray(unwrapped - image * lengths), jnp.asarray(image), unwrapped
+
+
+@pytest.mark.parametrize("name", list(LAWS))
+def test_force_is_minus_gradient_of_energy(name):
+    law = LAWS[name]
+    positions, image, unwrapped = _chains(1)
+
+    def energy(unwrapped_positions):
+        springs = unwrapped_positions[:, 1:] - unwrapped_positions[:, :-1]
+        return jnp.sum(law.energy(jnp.sum(springs**2, axis=-1)))
+
+    expected = -jax.grad(energy)(jnp.asarray(unwrapped))
+    result = bonds.chain_bond_forces(BOX, positions, image, law, with_virial=True)
+    # Round-off scale: float64 ε times the largest force (the WCA core is steep).
+    scale = 1e-13 * float(jnp.max(jnp.abs(expected)))
+    np.testing.assert_allclose(result.forces, expected, rtol=1e-10, atol=scale)
+    # Newton's third law: the springs exert no net force on a chain.
+    np.testing.assert_allclose(jnp.sum(result.forces, axis=1), 0.0, atol=scale)
+    # Virial Σ r_ij ⊗ F_ij equals Σ_k r_k ⊗ F_k for the unwrapped chain (no net force).
+    virial = jnp.einsum("cka,ckb->ab", unwrapped, result.forces)
+    np.testing.assert_allclose(result.virial, virial, rtol=1e-10, atol=100 * scale)
+    assert not bool(result.overstretched) and not bool(result.past_half_box)
+
+
+def test_scalar_laws_match_their_formulas():
+    """Tension T(Q) = Q · stiffness at a few lengths, against the textbook formulas."""
+    q = jnp.asarray([0.3, 0.9, 1.2])
+    q_sq = q * q
+    np.testing.assert_allclose(q * LAWS["hookean"].stiffness(q_sq), 2.0 * q)
+    np.testing.assert_allclose(q * LAWS["fraenkel"].stiffness(q_sq), 30.0 * (q - 0.8))
+    np.testing.assert_allclose(q * LAWS["fene"].stiffness(q_sq), 0.5 * q / (1 - q_sq / 25.0))
+    wca = -24 * (2 / q**13 - 1 / q**7) * (q < 2 ** (1 / 6))
+    np.testing.assert_allclose(
+        q * LAWS["fene_log_wca"].stiffness(q_sq), 30.0 * q / (1 - q_sq / 2.25) + wca
+    )
+
+
+def test_fene_past_maximum_extension_is_flagged_and_finite():
+    law = LAWS["fene"]
+    positions = jnp.asarray([[[1.0, 1.0, 1.0], [6.2, 1.0, 1.0]]])  # Q = 5.2 > Q0 = 5
+    result = bonds.chain_bond_forces(
+        PeriodicBox((20.0, 20.0, 20.0)), positions, jnp.zeros((1, 2, 3), jnp.int32), law, False
+    )
+    assert bool(result.overstretched)
+    assert np.all(np.isfinite(result.forces))
+
+
+def test_spring_longer_than_half_box_is_flagged():
+    """Image counters say the beads are 7 apart along x in a box of 12; the minimum
+    image (5 the other way) would silently flip the spring."""
+    positions = jnp.asarray([[[1.0, 1.0, 1.0], [8.0, 1.0, 1.0]]])
+    image = jnp.zeros((1, 2, 3), jnp.int32)
+    result = bonds.chain_bond_forces(BOX, positions, image, LAWS["hookean"], False)
+    assert bool(result.past_half_box)
+    crossing = jnp.asarray([[[11.5, 1.0, 1.0], [0.5, 1.0, 1.0]]])  # 1 apart across x = L
+    crossing_image = jnp.asarray([[[0, 0, 0], [1, 0, 0]]], jnp.int32)
+    result = bonds.chain_bond_forces(BOX, crossing, crossing_image, LAWS["hookean"], False)
+    assert not bool(result.past_half_box)
+    np.testing.assert_allclose(result.forces[0, 0], [2.0, 0, 0])
+
+
+def test_placement_lengths():
+    """FENE dumbbells start at their exact ⟨Q²⟩^{1/2} = Q0 √(3/(b+5)) (thesis eq. 4.8);
+    the Kremer–Grest bond at its energy minimum ≈ 0.96σ for k = 30, R0 = 1.5."""
+    b = 0.5 * 25.0
+    assert LAWS["fene"].placement_length == pytest.approx(5.0 * np.sqrt(3 / (b + 5)))
+    assert LAWS["hookean"].placement_length == pytest.approx(np.sqrt(1.5))
+    assert LAWS["fraenkel"].placement_length == 0.8
+    assert 0.95 < LAWS["fene_log_wca"].placement_length < 0.98
