@@ -18,11 +18,11 @@ memory ``O(L p)`` per element, and cost ``O(L p)`` element operations per sample
 Coarse-graining error at level ``l`` (block width ``w = m^l``): for a correlation
 ``C(d)`` the block means give ``(1/w^2) sum_{a,b=0}^{w-1} C(d + b - a)``, which for
 an exponential ``C(d) = C_0 exp(-d/tau)`` and ``d >= w`` is exactly
-``C(d) sinh^2(w/2tau) / (w^2 sinh^2(1/2tau)) = C(d) [1 + (w^2 - 1)/(24 tau^2) + ...]``.
-The relative error is small while the lag ``j w >= (p/m) w`` is short compared with
-the correlation time only if ``w << tau``; Ramírez et al. choose ``p/m`` large enough
-(``p = 16, m = 2``) that the error stays a few per cent where the correlation is still
-resolvable.
+``C(d) sinh^2(w/2tau) / (w^2 sinh^2(1/2tau)) = C(d) [1 + (w^2 - 1)/(12 tau^2) + ...]``.
+Level ``l`` only serves lags ``d >= (p/m) w``, so the relative error at lag ``d`` is at
+most about ``(m d / p)^2 / (12 tau^2)``: with ``p/m = 8`` (Ramírez et al.'s ``p = 16,
+m = 2``) about 1 per cent at ``d = 3 tau``, where the correlation has decayed to 5 per
+cent.
 
 Two modes, elementwise over the sample's shape:
 
@@ -45,6 +45,7 @@ Usage::
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -167,44 +168,47 @@ def update(state: MultipleTauState, sample) -> MultipleTauState:
             f"got {sample.shape}"
         )
     points, m = state.points_per_level, state.averaging
-    distances = np.arange(points)
-    buffers, inserted, accumulators, accumulated, correlations, counts = [], [], [], [], [], []
-    value, active = sample, jnp.asarray(True)
-    for level in range(state.levels):
-        position = state.inserted[level] % points
-        buffer = state.buffer[level]
+    distances = jnp.arange(points)
+
+    def level_step(carry, level_state):
+        value, active = carry
+        buffer, n_inserted, total, n_accumulated, correlation, counts, level = level_state
+        position = n_inserted % points
         buffer = jnp.where(active, buffer.at[position].set(value), buffer)
-        n_inserted = state.inserted[level] + active.astype(jnp.int32)
+        n_inserted = n_inserted + active.astype(jnp.int32)
         older = buffer[(position - distances) % points]
         if state.mode == "autocorrelation":
             products = value[None] * older
         else:
             products = (value[None] - older) ** 2
-        first_distance = 0 if level == 0 else points // m
+        first_distance = jnp.where(level == 0, 0, points // m)
         valid = active & (distances < n_inserted) & (distances >= first_distance)
-        correlations.append(
-            state.correlation[level] + jnp.where(_broadcast_mask(valid, products.ndim), products, 0)
-        )
-        counts.append(state.counts[level] + valid.astype(jnp.int32))
-        buffers.append(buffer)
-        inserted.append(n_inserted)
-
-        total = state.accumulator[level] + jnp.where(active, value, 0)
-        n_accumulated = state.accumulated[level] + active.astype(jnp.int32)
+        correlation = correlation + jnp.where(_broadcast_mask(valid, products.ndim), products, 0)
+        counts = counts + valid.astype(jnp.int32)
+        total = total + jnp.where(active, value, 0)
+        n_accumulated = n_accumulated + active.astype(jnp.int32)
         passes_up = n_accumulated == m
-        accumulators.append(jnp.where(passes_up, 0, total))
-        accumulated.append(jnp.where(passes_up, 0, n_accumulated))
-        value, active = total / m, passes_up
-    return MultipleTauState(
-        buffer=jnp.stack(buffers),
-        inserted=jnp.stack(inserted),
-        accumulator=jnp.stack(accumulators),
-        accumulated=jnp.stack(accumulated),
-        correlation=jnp.stack(correlations),
-        counts=jnp.stack(counts),
-        averaging=state.averaging,
-        mode=state.mode,
+        new_level = (
+            buffer,
+            n_inserted,
+            jnp.where(passes_up, 0, total),
+            jnp.where(passes_up, 0, n_accumulated),
+            correlation,
+            counts,
+        )
+        return (total / m, passes_up), new_level
+
+    levels = (
+        state.buffer,
+        state.inserted,
+        state.accumulator,
+        state.accumulated,
+        state.correlation,
+        state.counts,
+        jnp.arange(state.levels),
     )
+    _, new = jax.lax.scan(level_step, (sample, jnp.asarray(True)), levels)
+    return MultipleTauState(*new, averaging=state.averaging, mode=state.mode)
 
 
 def update_many(state: MultipleTauState, samples) -> MultipleTauState:
@@ -232,11 +236,27 @@ def lags(levels: int, points_per_level: int = 16, averaging: int = 2) -> np.ndar
     Level 0: ``0 .. p-1``; level ``l >= 1``: ``j m^l`` for ``j = p/m .. p-1``.
     Returns a NumPy int64 array of length ``p + (L - 1)(p - p/m)``.
     """
-    points, m = points_per_level, averaging
-    parts = [np.arange(points)]
+    level_index, distance_index = _selected_entries(levels, points_per_level, averaging)
+    return (distance_index * averaging**level_index).astype(np.int64)
+
+
+def _selected_entries(levels: int, points: int, averaging: int):
+    """(level, distance) index arrays of the entries :func:`result` reports, in lag order."""
+    level_index = [np.zeros(points, np.int64)]
+    distance_index = [np.arange(points)]
     for level in range(1, levels):
-        parts.append(np.arange(points // m, points) * m**level)
-    return np.concatenate(parts).astype(np.int64)
+        distance_index.append(np.arange(points // averaging, points))
+        level_index.append(np.full(points - points // averaging, level))
+    return np.concatenate(level_index), np.concatenate(distance_index)
+
+
+@partial(jax.jit, static_argnames="averaging")
+def _averages(correlation, counts, averaging: int):
+    levels, points = counts.shape
+    level_index, distance_index = _selected_entries(levels, points, averaging)
+    sums = correlation[level_index, distance_index]
+    n = _broadcast_mask(counts[level_index, distance_index], sums.ndim).astype(sums.dtype)
+    return jnp.where(n > 0, sums / jnp.where(n > 0, n, 1), jnp.nan)
 
 
 def result(state: MultipleTauState):
@@ -247,13 +267,5 @@ def result(state: MultipleTauState):
       :func:`lags`) and an array ``(K, *sample_shape)`` of the averages
       ``sum / count``; NaN where no pair at that lag has been seen yet.
     """
-    points, m = state.points_per_level, state.averaging
-    selected_sums, selected_counts = [state.correlation[0]], [state.counts[0]]
-    for level in range(1, state.levels):
-        selected_sums.append(state.correlation[level, points // m :])
-        selected_counts.append(state.counts[level, points // m :])
-    sums = jnp.concatenate(selected_sums)
-    counts = jnp.concatenate(selected_counts)
-    counts = _broadcast_mask(counts, sums.ndim).astype(sums.dtype)
-    average = jnp.where(counts > 0, sums / jnp.where(counts > 0, counts, 1), jnp.nan)
-    return lags(state.levels, points, m), average
+    lag_values = lags(state.levels, state.points_per_level, state.averaging)
+    return lag_values, _averages(state.correlation, state.counts, state.averaging)
