@@ -37,6 +37,7 @@ an analysis step returning Python floats.
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -86,6 +87,7 @@ def average_over_elements(correlation):
     return summed.reshape(summed.shape[0], -1).mean(axis=1)
 
 
+@jax.jit
 def _lagged_products(series):
     """``sum_{t=0}^{T-1-k} x(t) x(t+k)`` for k = 0 .. T-1 (elementwise), by FFT."""
     length = series.shape[0]
@@ -116,7 +118,11 @@ def time_autocorrelation(series):
     Returns:
       ``(T, ...)``: entry ``k`` is ``(1/(T - k)) sum_{t=0}^{T-1-k} x(t) x(t + k)``.
     """
-    x = _time_series(series, "series")
+    return _autocorrelation(_time_series(series, "series"))
+
+
+@jax.jit
+def _autocorrelation(x):
     return _lagged_products(x) / _origins(x.shape[0], x.ndim, x.dtype)
 
 
@@ -133,7 +139,11 @@ def time_msd(series):
     Returns:
       ``(T, ...)``: entry ``k`` is the MSD at lag ``k`` (entry 0 is 0).
     """
-    x = _time_series(series, "series")
+    return _msd(_time_series(series, "series"))
+
+
+@jax.jit
+def _msd(x):
     x = x - x.mean(axis=0)
     length = x.shape[0]
     squares = x**2
@@ -163,8 +173,7 @@ def bead_msd(trajectory):
       ``(T, n_chains)`` (units r_c^2); lag ``k`` on axis 0.  Average over axis 1 for
       g1; the chains are the samples for an error bar.
     """
-    x = _trajectory(trajectory)
-    return time_msd(x).sum(axis=-1).mean(axis=-1)
+    return _msd(_trajectory(trajectory)).sum(axis=-1).mean(axis=-1)
 
 
 def relative_bead_msd(trajectory):
@@ -173,7 +182,7 @@ def relative_bead_msd(trajectory):
     Args and Returns as :func:`bead_msd`.
     """
     x = _trajectory(trajectory)
-    return time_msd(x - x.mean(axis=-2, keepdims=True)).sum(axis=-1).mean(axis=-1)
+    return _msd(x - x.mean(axis=-2, keepdims=True)).sum(axis=-1).mean(axis=-1)
 
 
 def center_of_mass_msd(trajectory):
@@ -181,24 +190,40 @@ def center_of_mass_msd(trajectory):
 
     Args as :func:`bead_msd`.
     """
-    x = _trajectory(trajectory)
-    return time_msd(x.mean(axis=-2)).sum(axis=-1)
+    return _msd(_trajectory(trajectory).mean(axis=-2)).sum(axis=-1)
 
 
 def positional_autocorrelation(trajectory):
-    """Normalised positional autocorrelation ``C(t)`` per chain (see module docstring).
+    """Normalised positional autocorrelation ``C(t)`` (see module docstring) with errors.
+
+    ``C(k) = sum_c S_c(k) / sum_c S_c(0)`` with ``S_c(k) = <sum_i u_i(t0+k) . u_i(t0)>_t0``
+    for chain ``c`` (a ratio of averages, so no per-chain normalisation bias).  The
+    standard error is the jackknife over chains (leave one chain out; Efron & Stein,
+    Ann. Stat. 9, 586 (1981)), treating chains as independent samples.
 
     Args:
-      trajectory: ``(T, n_chains, n_beads, 3)`` unwrapped positions, equal spacing.
+      trajectory: ``(T, n_chains, n_beads, 3)`` unwrapped positions, equal spacing;
+        at least 2 chains.
 
     Returns:
-      ``(T, n_chains)``: ``<sum_i u_i(t0+k) . u_i(t0)>_t0 / <sum_i |u_i|^2>_t0`` for each
-      chain (1 at lag 0); the mean over chains is ``C(t)``.
+      ``(C, C_error)``: two ``(T,)`` arrays; ``C[0] = 1`` and ``C_error[0] = 0``.
     """
     x = _trajectory(trajectory)
+    if x.shape[1] < 2:
+        raise ValueError(f"trajectory needs at least 2 chains for an error, got {x.shape[1]}")
+    return _positional_autocorrelation(x)
+
+
+@jax.jit
+def _positional_autocorrelation(x):
+    n_chains = x.shape[1]
     relative = x - x.mean(axis=-2, keepdims=True)
-    correlation = time_autocorrelation(relative).sum(axis=(-2, -1))
-    return correlation / correlation[0]
+    per_chain = _autocorrelation(relative).sum(axis=(-2, -1))  # (T, n_chains)
+    total = per_chain.sum(axis=1)
+    correlation = total / total[0]
+    left_out = (total[:, None] - per_chain) / (total[0] - per_chain[0])
+    spread = jnp.sum((left_out - left_out.mean(axis=1, keepdims=True)) ** 2, axis=1)
+    return correlation, jnp.sqrt((n_chains - 1) / n_chains * spread)
 
 
 def center_of_mass_vacf(velocities):
@@ -211,8 +236,7 @@ def center_of_mass_vacf(velocities):
       ``(T, n_chains)``: ``<V_cm(t0) . V_cm(t0 + k)>`` with ``V_cm = (1/N) sum_i v_i``;
       Mussawisade et al. Fig. 1 (long-time tail ``~ t^(-3/2)``).
     """
-    v = _trajectory(velocities)
-    return time_autocorrelation(v.mean(axis=-2)).sum(axis=-1)
+    return _autocorrelation(_trajectory(velocities).mean(axis=-2)).sum(axis=-1)
 
 
 def diffusion_coefficient(
