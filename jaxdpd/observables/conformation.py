@@ -24,6 +24,7 @@ Conventions (with the seeds they follow):
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -92,12 +93,14 @@ def fractional_extension(chains, contour_length):
     Args:
       chains: ``(..., n_chains, n_beads, 3)`` unwrapped positions.
       contour_length: maximum contour length, e.g. ``(N - 1) Q_0`` for FENE springs of
-        maximum extension ``Q_0`` (units r_c); positive scalar.
+        maximum extension ``Q_0`` (units r_c); positive scalar (checked unless traced).
 
     Returns:
       ``(..., n_chains)``: ``|R_e| / contour_length``, in [0, 1) for FENE chains.
     """
-    if np.ndim(contour_length) != 0 or not float(contour_length) > 0:
+    if not isinstance(contour_length, jax.core.Tracer) and (
+        np.ndim(contour_length) != 0 or not float(contour_length) > 0
+    ):
         raise ValueError(f"contour_length must be a positive scalar, got {contour_length!r}")
     distance = jnp.sqrt(end_to_end_squared(chains))
     return distance / jnp.asarray(contour_length, distance.dtype)

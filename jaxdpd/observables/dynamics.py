@@ -18,9 +18,9 @@ With the Rouse modes ``X_p`` of :mod:`jaxdpd.observables.conformation`
 ``C(t) = sum_{p>=1} <X_p(t0 + t) . X_p(t0)> / sum_{p>=1} <X_p^2>``, the sum of the
 Rouse-mode autocorrelations weighted by their amplitudes; this is the quantity the
 Rouse–Zimm model of :func:`jaxdpd.observables.fits.rouse_zimm_correlation` describes.
-(The brief that asked for this module refers to a ``C(t)`` in Clarke's thesis ch. 5;
-the thesis text in the seeds has no such definition, so the definition above, the one
-the Rouse-mode analysis of the two other seeds implies, is used.)
+(Clarke's thesis as available in ``shared/seeds`` defines no positional
+autocorrelation; the definition above is the one the Rouse-mode analyses of Ahlrichs &
+Dünweg and Mussawisade et al. imply.)
 
 Two ways to compute them:
 
