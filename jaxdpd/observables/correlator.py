@@ -32,8 +32,9 @@ Two modes, elementwise over the sample's shape:
   of mass; sum the Cartesian axis and average over beads/chains afterwards).
 
 Dot products (``A . B``) are the sum over the Cartesian axis of the elementwise result.
-Sums are accumulated in the sample dtype: in float32, ``update`` counts above ~1e6
-lose about ``1e-7 * count`` relative precision; use float64 for very long runs.
+Sums are accumulated in the sample dtype.  A float32 sum of ``n`` products carries a
+relative round-off of up to ``n * 6e-8`` (typically ``sqrt(n) * 6e-8``), i.e. up to
+0.6 per cent after 1e5 samples at level 0; use float64 for long runs.
 
 Usage::
 
