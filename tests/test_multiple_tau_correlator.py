@@ -1,0 +1,126 @@
+"""Multiple-tau correlator (Ramírez et al., J. Chem. Phys. 133, 154103 (2010)) against
+direct (brute-force) correlations: exact at level 0 and, at coarse levels, exactly the
+direct correlation of the block means; statistically the analytic coarse-grained
+correlation of an AR(1) signal."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdpd.observables import correlator
+
+POINTS, AVERAGING, LEVELS = 8, 2, 4
+# One jitted function for the whole file, so equal shapes compile once.
+update_many = jax.jit(correlator.update_many)
+
+
+def run(samples, mode, dtype=jnp.float64):
+    state = correlator.init(samples.shape[1:], LEVELS, POINTS, AVERAGING, mode=mode, dtype=dtype)
+    return correlator.result(update_many(state, jnp.asarray(samples, dtype)))
+
+
+def direct(series, lag, mode):
+    """Direct estimator over all origins: mean_t f(x(t), x(t + lag))."""
+    later, earlier = series[lag:], series[: len(series) - lag]
+    return (later * earlier if mode == "autocorrelation" else (later - earlier) ** 2).mean(axis=0)
+
+
+def block_means(series, width):
+    blocks = len(series) // width
+    return series[: blocks * width].reshape((blocks, width) + series.shape[1:]).mean(axis=1)
+
+
+@pytest.mark.parametrize("mode", correlator.MODES)
+def test_levels_equal_direct_correlations_of_block_means(mode):
+    """Level 0 is the direct estimator at lags 0 .. p-1 (to round-off); level l >= 1 is,
+    by construction, the direct estimator on the series of means of 2^l consecutive
+    samples, at block lags p/m .. p-1.  Signal: a random walk (MSD mode) or white noise."""
+    rng = np.random.default_rng(3)
+    noise = rng.normal(size=(300, 2, 3))
+    series = np.cumsum(noise, axis=0) if mode == "msd" else noise
+    lags, values = run(series, mode)
+    np.testing.assert_array_equal(lags, correlator.lags(LEVELS, POINTS, AVERAGING))
+    for index, lag in enumerate(lags[:POINTS]):
+        np.testing.assert_allclose(values[index], direct(series, lag, mode), rtol=1e-12, atol=1e-12)
+    for level in range(1, LEVELS):
+        width = AVERAGING**level
+        means = block_means(series, width)
+        for j in range(POINTS // AVERAGING, POINTS):
+            index = int(np.flatnonzero(lags == j * width)[0])
+            np.testing.assert_allclose(
+                values[index], direct(means, j, mode), rtol=1e-12, atol=1e-12
+            )
+
+
+def test_coarse_levels_match_ar1_correlation_within_coarse_graining_error():
+    """AR(1) x_t = rho x_{t-1} + sqrt(1 - rho^2) e_t, rho = exp(-1/tau): C(d) = rho^d.
+    Means of w samples at block distance j (lag d = j w >= w) correlate exactly as
+    C(d) K_w, K_w = sinh^2(w/2tau) / (w^2 sinh^2(1/2tau)) = 1 + (w^2 - 1)/(12 tau^2) + ...
+    (module docstring).  64 independent channels give the standard error (scatter over
+    channels / 8); checks allow 4 standard errors, on lags with C(d) > 0.05.  Run in
+    float32 (sums of 4096 O(1) products: round-off ~1e-4, far below the errors)."""
+    tau, channels, length = 20.0, 64, 4096
+    rho = np.exp(-1 / tau)
+    rng = np.random.default_rng(8)
+    kicks = rng.normal(size=(length, channels)) * np.sqrt(1 - rho**2)
+    signal = np.empty((length, channels))
+    signal[0] = rng.normal(size=channels)
+    for t in range(1, length):
+        signal[t] = rho * signal[t - 1] + kicks[t]
+    levels = 6
+    state = correlator.init((channels,), levels, 16, AVERAGING, dtype=jnp.float32)
+    state = update_many(state, jnp.asarray(signal, jnp.float32))
+    lags, values = correlator.result(state)
+    assert values.dtype == jnp.float32
+    width = np.ones(len(lags))
+    for level in range(1, levels):
+        width[16 + (level - 1) * 8 : 16 + level * 8] = AVERAGING**level
+    values = np.asarray(values)
+    estimate, error = values.mean(axis=1), values.std(axis=1, ddof=1) / np.sqrt(channels)
+    exact = rho**lags
+    factor = np.sinh(width / (2 * tau)) ** 2 / (width**2 * np.sinh(1 / (2 * tau)) ** 2)
+    resolvable = exact > 0.05
+    z = (estimate - exact * factor)[resolvable] / error[resolvable]
+    assert np.all(np.abs(z) < 4), z
+    # On the resolvable lags the blocks are at most w = 4 wide, so the coarse-graining
+    # bias K_w - 1 <= 15/(12 tau^2) = 0.3 per cent: the coarse levels estimate the true
+    # C(d) = rho^d itself within the same statistical error.
+    assert np.all(factor[resolvable] - 1 < 15 / (12 * tau**2) * 1.01)
+    assert np.all(np.abs(estimate - exact)[resolvable] < 4 * error[resolvable])
+
+
+def test_chunks_and_vmap_agree():
+    """Feeding two chunks equals the direct MSD of the whole series at level 0 (the engine
+    feeds chunk after chunk); a vmap over replicas equals separate runs."""
+    rng = np.random.default_rng(4)
+    series = np.cumsum(rng.normal(size=(600, 2, 3)), axis=0)
+    state = correlator.init((2, 3), LEVELS, POINTS, AVERAGING, mode="msd")
+    chunked = update_many(update_many(state, series[:300]), series[300:])
+    lags, values = correlator.result(chunked)
+    for index, lag in enumerate(lags[:POINTS]):
+        np.testing.assert_allclose(values[index], direct(series, lag, "msd"), rtol=1e-12)
+    replicas = jax.vmap(update_many, in_axes=(None, 0))(
+        state, jnp.stack([series[:300], 2 * series[:300]])
+    )
+    single = update_many(state, series[:300])
+    np.testing.assert_allclose(replicas.correlation[0], single.correlation, rtol=1e-12)
+    np.testing.assert_allclose(replicas.correlation[1], 4 * single.correlation, rtol=1e-12)
+    # Lags not reached yet are NaN, never a silent zero.
+    assert np.isnan(correlator.result(state)[1]).all()
+
+
+def test_bad_arguments_are_refused():
+    with pytest.raises(ValueError, match="points_per_level must be a multiple"):
+        correlator.init((3,), 3, points_per_level=9, averaging=2)
+    with pytest.raises(ValueError, match="mode"):
+        correlator.init((3,), 3, mode="cross")
+    with pytest.raises(ValueError, match="levels"):
+        correlator.init((3,), 0)
+    with pytest.raises(ValueError, match="dtype"):
+        correlator.init((3,), 2, dtype=jnp.int32)
+    state = correlator.init((3,), 2)
+    with pytest.raises(ValueError, match="sample must have shape"):
+        correlator.update(state, jnp.zeros(4))
+    with pytest.raises(ValueError, match="samples must have shape"):
+        correlator.update_many(state, jnp.zeros((5, 4)))
