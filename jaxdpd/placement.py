@@ -5,10 +5,13 @@ law's placement length (the energy minimum, or a free spring's root-mean-square
 length), so no spring starts overstretched; a FENE spring is placed at its exact
 equilibrium ⟨Q²⟩^{1/2} (thesis eq. 4.8), well inside Q0.  Velocities are
 Maxwell–Boltzmann at the solvent's k_BT with zero total momentum.
+
+The configuration is drawn on the host with NumPy's PCG64 generator seeded by the
+scene's seed (no device compilation for a one-off), then cast to the scene's dtype.
 """
 
-import jax
 import jax.numpy as jnp
+import numpy as np
 
 
 def initial_configuration(scene, box, dtype, blocks):
@@ -24,30 +27,34 @@ def initial_configuration(scene, box, dtype, blocks):
         unbroken chains, velocities (N, 3), species (N,) int32 (species in blocks).
     """
     n = scene.n_particles
-    seed_key = jax.random.PRNGKey(scene.seed)
-    key_positions, key_velocities = jax.random.split(seed_key)
-    key_chains = jax.random.fold_in(seed_key, 1)
-    lengths = box.lengths_array(dtype)
-    positions = jax.random.uniform(key_positions, (n, 3), dtype) * lengths
-    for block, key in zip(blocks, jax.random.split(key_chains, max(len(blocks), 1)), strict=False):
-        positions = positions.at[block.first : block.stop].set(
-            _random_walks(key, block, lengths, dtype).reshape(-1, 3)
-        )
-    positions, image = box.wrap(positions, jnp.zeros((n, 3), jnp.int32))
+    rng = np.random.default_rng(scene.seed)
+    lengths = np.asarray(box.lengths, np.float64)
+    unwrapped = rng.uniform(size=(n, 3)) * lengths
+    for block in blocks:
+        unwrapped[block.first : block.stop] = _random_walks(rng, block, lengths).reshape(-1, 3)
+    image = np.floor(unwrapped / lengths).astype(np.int32)
+    positions = np.asarray(unwrapped - image * lengths, dtype)
+    # Rounding to `dtype` can leave a coordinate exactly at L: fold it to 0 and count
+    # the crossing.
+    at_edge = positions >= lengths.astype(dtype)
+    positions = np.where(at_edge, 0, positions).astype(dtype)
+    image = image + at_edge
     kT = scene.solvent.kT if scene.solvent.method == "dpd" else 1.0
-    velocities = jax.random.normal(key_velocities, (n, 3), dtype) * jnp.sqrt(jnp.asarray(kT, dtype))
-    velocities = velocities - jnp.mean(velocities, axis=0)
+    velocities = rng.normal(size=(n, 3)) * np.sqrt(kT)
+    velocities -= velocities.mean(axis=0)
     counts = [s.count for s in scene.particles.species]
-    species = jnp.repeat(
-        jnp.arange(len(counts), dtype=jnp.int32), jnp.asarray(counts), total_repeat_length=n
+    species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
+    return (
+        jnp.asarray(positions),
+        jnp.asarray(image, jnp.int32),
+        jnp.asarray(velocities, dtype),
+        jnp.asarray(species),
     )
-    return positions, image, velocities, species
 
 
-def _random_walks(key, block, lengths, dtype):
+def _random_walks(rng, block, lengths):
     """(C, M, 3) unwrapped chains: random start, M − 1 random steps of fixed length."""
-    key_start, key_steps = jax.random.split(key)
-    start = jax.random.uniform(key_start, (block.n_chains, 1, 3), dtype) * lengths
-    steps = jax.random.normal(key_steps, (block.n_chains, block.beads - 1, 3), dtype)
-    steps = steps / jnp.linalg.norm(steps, axis=-1, keepdims=True) * block.law.placement_length
-    return jnp.concatenate([start, start + jnp.cumsum(steps, axis=1)], axis=1)
+    start = rng.uniform(size=(block.n_chains, 1, 3)) * lengths
+    steps = rng.normal(size=(block.n_chains, block.beads - 1, 3))
+    steps *= block.law.placement_length / np.linalg.norm(steps, axis=-1, keepdims=True)
+    return np.concatenate([start, start + np.cumsum(steps, axis=1)], axis=1)

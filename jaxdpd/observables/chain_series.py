@@ -11,6 +11,11 @@ Chains are reconstructed in one piece across periodic boundaries (thesis §3.2.4
 
 import jax.numpy as jnp
 
+from jaxdpd.observables.conformation import (
+    bond_vectors,
+    end_to_end_squared,
+    gyration_radius_squared,
+)
 from jaxdpd.topology import chain_coordinates
 
 
@@ -27,13 +32,13 @@ def conformation_samples(box, positions, blocks) -> dict:
     samples = {}
     for block in blocks:
         chains = chain_coordinates(box, positions, block)
-        springs = chains[:, 1:] - chains[:, :-1]
+        springs = bond_vectors(chains)
         samples[f"{block.species}/bond_length_sq"] = jnp.mean(jnp.sum(springs**2, axis=-1))
         if block.beads > 2:
-            end_to_end = chains[:, -1] - chains[:, 0]
-            samples[f"{block.species}/end_to_end_sq"] = jnp.mean(jnp.sum(end_to_end**2, axis=-1))
-            centred = chains - jnp.mean(chains, axis=1, keepdims=True)
-            samples[f"{block.species}/gyration_radius_sq"] = jnp.mean(jnp.sum(centred**2, axis=-1))
+            samples[f"{block.species}/end_to_end_sq"] = jnp.mean(end_to_end_squared(chains))
+            samples[f"{block.species}/gyration_radius_sq"] = jnp.mean(
+                gyration_radius_squared(chains)
+            )
     return samples
 
 
