@@ -24,6 +24,8 @@ class SimState:
         time: simulated time.
         seed: uint32 seed of the counter-based noise.
         flags: int32 error bits (see jaxdpd.errors).
+        solvent_state: state a solvent method keeps beside the particles (e.g. a
+            lattice-Boltzmann fluid), a pytree; None for particle solvents.
     """
 
     positions: jnp.ndarray
@@ -37,3 +39,4 @@ class SimState:
     time: jnp.ndarray
     seed: jnp.ndarray
     flags: jnp.ndarray
+    solvent_state: object = None
