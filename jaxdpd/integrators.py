@@ -11,15 +11,17 @@ import jax.numpy as jnp
 from jaxdpd import errors
 
 
-def _flag(state, positions, velocities, pair_list, kT, bits):
+def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
     """OR the error bits of this step into the state's flags.
 
     Args:
         bits: error bits the force kernel reported.
-        kT: the set temperature (unit masses); a mean v² above
-            RUNAWAY_FACTOR · 3 kT flags a runaway.
+        kT: the set temperature; a mean m v² above RUNAWAY_FACTOR · 3 kT flags a
+            runaway.
+        masses: (N,) particle masses, or None for unit masses.
     """
-    twice_kinetic = jnp.sum(velocities * velocities)
+    squares = velocities * velocities
+    twice_kinetic = jnp.sum(squares if masses is None else masses[:, None] * squares)
     finite = jnp.isfinite(jnp.sum(positions) + twice_kinetic)
     runaway = twice_kinetic > errors.RUNAWAY_FACTOR * 3 * kT * velocities.shape[0]
     bits = (
@@ -31,36 +33,42 @@ def _flag(state, positions, velocities, pair_list, kT, bits):
     return state.flags | bits.astype(jnp.int32)
 
 
-def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, kT: float, dtype):
-    """Groot–Warren modified velocity Verlet (thesis eq. 2.10), unit masses:
+def modified_velocity_verlet(
+    box, dt: float, lambda_: float, interactions, kT: float, dtype, masses=None
+):
+    """Groot–Warren modified velocity Verlet (thesis eq. 2.10), a = f/m:
 
-        r(t+Δt) = r + Δt v + ½ Δt² f(t)
-        ṽ       = v + λ Δt f(t)
+        r(t+Δt) = r + Δt v + ½ Δt² a(t)
+        ṽ       = v + λ Δt a(t)
         f(t+Δt) = f(r(t+Δt), ṽ)
-        v(t+Δt) = v + ½ Δt [f(t) + f(t+Δt)]
+        v(t+Δt) = v + ½ Δt [a(t) + a(t+Δt)]
 
     λ = ½ is the usual velocity Verlet; Groot and Warren found λ ≈ 0.65 best for
     DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.  `kT` is the
-    temperature scale of the runaway check (see jaxdpd.errors).
+    temperature scale of the runaway check (see jaxdpd.errors).  `masses` is the
+    (N,) array of particle masses, or None for unit masses (no division traced).
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
 
+    def acceleration(forces):
+        return forces if masses is None else forces / masses[:, None]
+
     def step(state):
-        forces = state.forces
-        moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * forces
+        accelerations = acceleration(state.forces)
+        moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * accelerations
         positions, image = box.wrap(moved, state.image)
-        predicted = state.velocities + (lam * dt_) * forces
+        predicted = state.velocities + (lam * dt_) * accelerations
         advanced = state.set(positions=positions, image=image, step=state.step + 1)
         new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
-        velocities = state.velocities + (0.5 * dt_) * (forces + new_forces)
+        velocities = state.velocities + (0.5 * dt_) * (accelerations + acceleration(new_forces))
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
             pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits),
+            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
         )
 
     return step

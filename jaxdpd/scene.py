@@ -10,7 +10,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     precision   "float32" | "float64"
     cutoff      r_c > 0 of all pair interactions        default 1
     [box]       kind = "periodic"; lengths = [Lx, Ly, Lz] (optional, see particles)
-    [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction}]
+    [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
+                mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
                 (cubic box of side (N/ρ)^(1/3))
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
@@ -58,10 +59,11 @@ OBSERVABLES = ("temperature", "pressure", "rdf", "conformation")
 
 @dataclass(frozen=True)
 class Species:
-    """A particle species and how many particles it has."""
+    """A particle species, how many particles it has and their mass (units of m)."""
 
     name: str
     count: int
+    mass: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -245,6 +247,13 @@ class Scene:
                     f"box.lengths: L_{axis} = {length:.4g} must exceed 2 (cutoff + "
                     f"neighbors.skin) = {2 * list_cutoff:.4g}; enlarge the box or add particles"
                 )
+        if solvent.method == "hoogerbrugge_koelman" and any(
+            s.mass != 1.0 for s in particles.species
+        ):
+            raise ValueError(
+                "particles.species[].mass: the Hoogerbrugge–Koelman update is written for "
+                "unit masses; remove the masses or use solvent.method = 'dpd'"
+            )
         pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
@@ -293,7 +302,9 @@ class Scene:
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
             "count": self.particles.count,
-            "species": [{"name": s.name, "count": s.count} for s in self.particles.species],
+            "species": [
+                {"name": s.name, "count": s.count, "mass": s.mass} for s in self.particles.species
+            ],
         }
         data["solvent"] = _solvent_dict(self.solvent)
         if self.pair is None:
@@ -450,10 +461,10 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
     a count that is a multiple of M (fractions are rounded to the nearest one)."""
     if not isinstance(entries, list) or not entries:
         raise TypeError("particles.species: expected a non-empty list of {name, count|fraction}")
-    names, counts, fractions = [], [], []
+    names, counts, fractions, masses = [], [], [], []
     for k, entry in enumerate(entries):
         path = f"particles.species[{k}]"
-        check_keys(entry, ("name", "count", "fraction"), path)
+        check_keys(entry, ("name", "count", "fraction", "mass"), path)
         name = read_string(entry, "name", path)
         if name in names:
             raise ValueError(f"{path}.name = {name!r}: species names must be unique")
@@ -462,14 +473,15 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
         names.append(name)
         counts.append(read_number(entry, "count", path, None, minimum=0, integer=True))
         fractions.append(read_number(entry, "fraction", path, None, minimum=0, maximum=1))
+        masses.append(read_number(entry, "mass", path, 1.0, minimum=0, exclusive_minimum=True))
     if len(entries) == 1 and counts[0] is None and fractions[0] is None:
-        return (Species(names[0], total),)
+        return (Species(names[0], total, masses[0]),)
     if all(c is not None for c in counts):
         if sum(counts) != total:
             raise ValueError(
                 f"particles.species: counts sum to {sum(counts)}, particles.count is {total}"
             )
-        return tuple(Species(n, c) for n, c in zip(names, counts, strict=True))
+        return tuple(Species(*entry) for entry in zip(names, counts, masses, strict=True))
     if all(f is not None for f in fractions):
         if not math.isclose(sum(fractions), 1.0, abs_tol=1e-9):
             raise ValueError(f"particles.species: fractions sum to {sum(fractions)}, must be 1")
@@ -478,7 +490,7 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
             for n, f in zip(names[:-1], fractions[:-1], strict=True)
         ]
         resolved.append(total - sum(resolved))
-        return tuple(Species(n, c) for n, c in zip(names, resolved, strict=True))
+        return tuple(Species(*entry) for entry in zip(names, resolved, masses, strict=True))
     raise ValueError("particles.species: give every species a count, or every one a fraction")
 
 

@@ -48,6 +48,7 @@ class Simulation:
         box: the periodic box.
         blocks: the polymer chain blocks (jaxdpd.topology.ChainBlock), maybe empty.
         dtype: floating dtype of positions, velocities and forces.
+        masses: (N,) particle masses, or None when all are 1.
         neighbor_search: the neighbour backend (None when no pair term exists).
         init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
         step_fn: `step_fn(state) -> (state, samples)`, pure and jittable; samples is
@@ -61,6 +62,7 @@ class Simulation:
     box: PeriodicBox
     blocks: tuple
     dtype: object
+    masses: object
     neighbor_search: NeighborSearch | None
     init_fn: Callable
     step_fn: Callable
@@ -92,6 +94,19 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
+def particle_masses(scene: Scene, dtype):
+    """(N,) particle masses in species order, or None when every mass is 1 (then no
+    mass arithmetic is traced)."""
+    species = scene.particles.species
+    if all(s.mass == 1.0 for s in species):
+        return None
+    return jnp.repeat(
+        jnp.asarray([s.mass for s in species], dtype),
+        jnp.asarray([s.count for s in species]),
+        total_repeat_length=scene.n_particles,
+    )
+
+
 @functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
@@ -104,6 +119,7 @@ def build(scene: Scene) -> Simulation:
     terms = pair_terms(scene, dtype)
     blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
+    masses = particle_masses(scene, dtype)
     search = None
     if terms:
         search = neighbor_search(
@@ -161,13 +177,14 @@ def build(scene: Scene) -> Simulation:
             interactions,
             scene.solvent.kT,
             dtype,
+            masses,
         )
 
     observables = scene.output.observables
 
     def step_fn(state):
         state = advance(state)
-        samples = step_samples(observables, state)
+        samples = step_samples(observables, state, masses)
         if "conformation" in observables:
             samples.update(conformation_samples(box, state.positions, blocks))
         return state, samples
@@ -200,7 +217,7 @@ def build(scene: Scene) -> Simulation:
     def reallocate(state, minimum):
         return state.set(pair_list=allocate_pairs(state.positions, minimum))
 
-    return Simulation(scene, box, blocks, dtype, search, init_fn, step_fn, reallocate)
+    return Simulation(scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate)
 
 
 def _empty_pair_list(positions):

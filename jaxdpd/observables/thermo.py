@@ -1,8 +1,8 @@
 """Kinetic temperature and the virial pressure tensor.
 
-    k_BT = Σ_i m v_i² / (3 (N − 1))          (3N − 3 degrees of freedom: the total
+    k_BT = Σ_i m_i v_i² / (3 (N − 1))          (3N − 3 degrees of freedom: the total
                                               momentum is conserved)
-    P_ab = [Σ_i m v_ia v_ib + Σ_pairs (r_i − r_j)_a F_ij,b] / V
+    P_ab = [Σ_i m_i v_ia v_ib + Σ_pairs (r_i − r_j)_a F_ij,b] / V
 
 (Irving–Kirkwood virial form, thesis eq. 2.12 generalised to the tensor, with every
 pair force, dissipative and random included.)
@@ -11,9 +11,11 @@ pair force, dissipative and random included.)
 import numpy as np
 
 
-def kinetic_tensor(velocities, mass=1.0):
-    """Σ_i m v_ia v_ib, (3, 3)."""
-    return mass * velocities.T @ velocities
+def kinetic_tensor(velocities, masses=None):
+    """Σ_i m_i v_ia v_ib, (3, 3); `masses` (N,) or None for unit masses."""
+    if masses is None:
+        return velocities.T @ velocities
+    return (masses[:, None] * velocities).T @ velocities
 
 
 def temperature(kinetic, n_particles: int):
@@ -32,11 +34,11 @@ def scalar_pressure(tensor):
     return np.trace(np.asarray(tensor), axis1=-2, axis2=-1) / 3
 
 
-def step_samples(observables, state):
+def step_samples(observables, state, masses=None):
     """The per-step samples a scene asked for (traced, inside the scan)."""
     samples = {}
     if "temperature" in observables or "pressure" in observables:
-        samples["kinetic"] = kinetic_tensor(state.velocities)
+        samples["kinetic"] = kinetic_tensor(state.velocities, masses)
     if "pressure" in observables:
         samples["virial"] = state.virial
     return samples
