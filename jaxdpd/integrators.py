@@ -33,6 +33,11 @@ def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
     return state.flags | bits.astype(jnp.int32)
 
 
+def _acceleration(forces, masses):
+    """a = f/m; `masses` (N,) or None for unit masses (no division traced)."""
+    return forces if masses is None else forces / masses[:, None]
+
+
 def modified_velocity_verlet(
     box, dt: float, lambda_: float, interactions, kT: float, dtype, masses=None
 ):
@@ -51,22 +56,73 @@ def modified_velocity_verlet(
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
 
-    def acceleration(forces):
-        return forces if masses is None else forces / masses[:, None]
-
     def step(state):
-        accelerations = acceleration(state.forces)
+        accelerations = _acceleration(state.forces, masses)
         moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * accelerations
         positions, image = box.wrap(moved, state.image)
         predicted = state.velocities + (lam * dt_) * accelerations
         advanced = state.set(positions=positions, image=image, step=state.step + 1)
         new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
-        velocities = state.velocities + (0.5 * dt_) * (accelerations + acceleration(new_forces))
+        new_accelerations = _acceleration(new_forces, masses)
+        velocities = state.velocities + (0.5 * dt_) * (accelerations + new_accelerations)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
             pair_list=pair_list,
             virial=virial,
+            time=state.time + dt_,
+            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
+        )
+
+    return step
+
+
+def thermalized_velocity_verlet(
+    box, dt: float, interactions, thermalize, kT: float, dtype, masses=None
+):
+    """Velocity Verlet followed by a pair thermalisation: Lowe–Andersen DPD (Lowe,
+    Europhys. Lett. 47, 145 (1999); thesis table 2.1), with a = f/m:
+
+        v(t+½Δt) = v(t) + ½ Δt a(t)
+        r(t+Δt)  = r(t) + Δt v(t+½Δt)
+        f(t+Δt)  = f(r(t+Δt))                 (velocity-independent forces)
+        ṽ        = v(t+½Δt) + ½ Δt a(t+Δt)
+        v(t+Δt)  = thermalize(r(t+Δt), ṽ)     (pairs within r_T at r(t+Δt))
+
+    Table 2.1 is the same sequence read as a leapfrog: its steps 1–3 (half kick,
+    thermalise, half kick, both kicks with F(t)) turn v(t−½Δt) into v(t+½Δt) with the
+    thermalisation acting on the on-step velocity v(t) at r(t), which is the velocity
+    stored here.  Thermalising the half-step velocity instead (half kick, thermalise,
+    drift, force, half kick) is a different splitting: its on-step kinetic temperature
+    is biased by O(Δt²) (+1.3 % at Δt = 0.01, ΓΔt = 1, ρ = 3, a = 25, measured).
+
+    Args:
+        box: the box (wraps positions).
+        dt: Δt.
+        interactions: the composed force kernel (see the module docstring).
+        thermalize: `thermalize(state, velocities) -> (velocities, record)`, given the
+            state at the end of the step (its positions, refreshed pair list and step
+            counter); record.impulse_virial (3, 3) is added to the step's virial and
+            the record is kept in `state.solvent_state`.
+        kT: temperature scale of the runaway check (see jaxdpd.errors).
+        dtype: floating dtype.
+        masses: (N,) particle masses, or None for unit masses.
+    """
+    dt_ = jnp.asarray(dt, dtype)
+
+    def step(state):
+        half_kicked = state.velocities + (0.5 * dt_) * _acceleration(state.forces, masses)
+        positions, image = box.wrap(state.positions + dt_ * half_kicked, state.image)
+        advanced = state.set(positions=positions, image=image, step=state.step + 1)
+        new_forces, virial, pair_list, bits = interactions(positions, half_kicked, advanced)
+        advanced = advanced.set(pair_list=pair_list)
+        kicked = half_kicked + (0.5 * dt_) * _acceleration(new_forces, masses)
+        velocities, record = thermalize(advanced, kicked)
+        return advanced.set(
+            velocities=velocities,
+            forces=new_forces,
+            virial=virial + record.impulse_virial,
+            solvent_state=record,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
         )

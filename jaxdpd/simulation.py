@@ -1,9 +1,9 @@
 """`build(scene)`: compose a pure step function from exactly the terms a scene names.
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
-conservative force, with γ = 0 no dissipative or random force, without "pressure"
-no virial, without [[polymers]] no bond kernel, and with no pair term at all no
-neighbour search.
+conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
+Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
+kernel, and with no pair term or thermostat at all no neighbour search.
 """
 
 import functools
@@ -16,7 +16,11 @@ import jax.numpy as jnp
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import PeriodicBox
-from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
+from jaxdpd.integrators import (
+    collide_and_stream,
+    modified_velocity_verlet,
+    thermalized_velocity_verlet,
+)
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.thermo import step_samples
@@ -27,6 +31,7 @@ from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
 from jaxdpd.thermostats.dpd import groot_warren_term
 from jaxdpd.thermostats.hoogerbrugge_koelman import hoogerbrugge_koelman_term
+from jaxdpd.thermostats.lowe_andersen import empty_record, lowe_andersen_thermostat
 from jaxdpd.topology import chain_blocks
 
 
@@ -107,6 +112,16 @@ def particle_masses(scene: Scene, dtype):
     )
 
 
+def thermalization_cutoff(scene: Scene) -> float | None:
+    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
+    solvent = scene.solvent
+    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
+        return None
+    if solvent.thermalization_cutoff is None:
+        return scene.cutoff
+    return solvent.thermalization_cutoff
+
+
 @functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
@@ -120,12 +135,13 @@ def build(scene: Scene) -> Simulation:
     blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
+    bath_cutoff = thermalization_cutoff(scene)
     search = None
-    if terms:
+    if terms or bath_cutoff is not None:
         search = neighbor_search(
             box,
             n,
-            scene.cutoff,
+            max(scene.cutoff, bath_cutoff or 0.0),
             scene.neighbors.skin,
             scene.neighbors.method,
             scene.neighbors.format,
@@ -133,10 +149,12 @@ def build(scene: Scene) -> Simulation:
 
     def pair_interactions(positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial, refreshed pair list."""
-        if not terms:
+        if search is None:
             zeros = jnp.zeros_like(positions)
             return zeros, jnp.zeros((3, 3), dtype), state.pair_list
         pair_list = search.update(positions, state.pair_list)
+        if not terms:  # the list serves the thermostat alone
+            return jnp.zeros_like(positions), jnp.zeros((3, 3), dtype), pair_list
         geometry = pair_geometry(box, positions, pair_list, scene.cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
@@ -169,6 +187,28 @@ def build(scene: Scene) -> Simulation:
 
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+    elif bath_cutoff is not None:
+        lowe_andersen = lowe_andersen_thermostat(
+            box,
+            n,
+            min(1.0, scene.solvent.collision_frequency * scene.integrator.dt),
+            scene.solvent.kT,
+            bath_cutoff,
+            scene.integrator.dt,
+            dtype,
+            search.half,
+            masses,
+            with_virial,
+        )
+
+        def thermalize(state, velocities):
+            """Thermalise at the state's positions; noise keyed by its step counter."""
+            key = noise.step_key(state.seed, state.step)
+            return lowe_andersen(state.positions, velocities, state.pair_list, key)
+
+        advance = thermalized_velocity_verlet(
+            box, scene.integrator.dt, interactions, thermalize, scene.solvent.kT, dtype, masses
+        )
     else:
         advance = modified_velocity_verlet(
             box,
@@ -185,6 +225,9 @@ def build(scene: Scene) -> Simulation:
     def step_fn(state):
         state = advance(state)
         samples = step_samples(observables, state, masses)
+        if bath_cutoff is not None and with_virial:
+            # The thermostat's part of the virial, also contained in "virial".
+            samples["impulse_virial"] = state.solvent_state.impulse_virial
         if "conformation" in observables:
             samples.update(conformation_samples(box, state.positions, blocks))
         return state, samples
@@ -209,9 +252,11 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
         )
-        if scene.solvent.method == "dpd":
+        if scene.solvent.method in ("dpd", "lowe_andersen"):
             forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
             state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
+        if bath_cutoff is not None:
+            state = state.set(solvent_state=empty_record(dtype))
         return state
 
     def reallocate(state, minimum):
