@@ -152,7 +152,7 @@ def target_relative_velocity(key, i, j, kT, reduced_mass, dtype):
 
 
 def relative_velocity(velocity_i, velocity_j):
-    """Laboratory-frame relative velocity v_i − v_j of pairs, (..., 3).
+    """Laboratory-frame relative velocity v_i − v_j of pairs, (3, ...) components.
 
     The one place where the thermostat forms a pair's relative velocity: a
     Lees–Edwards box adds β γ̇ L_y x̂ here for pairs across the sliding boundary
@@ -165,7 +165,7 @@ class _HalfEdges(NamedTuple):
     """Selected pairs listed once per particle, sorted by (particle, order key).
 
     Attributes:
-        i, j: (H,) owner and partner of each half-edge; i = N past the selected ones.
+        i, j: (H,) owner and partner of each half-edge; i ≥ N past the selected ones.
         tie_break: (H,) int32 i XOR j (partner = owner XOR tie_break).
         start, stop: (N,) each particle's half-edges are [start, stop).
     """
@@ -188,10 +188,12 @@ def _half_edges(pair_i, pair_j, chosen, order_keys, n_particles: int) -> _HalfEd
     """
     index_bits, _ = order_key_bits(n_particles)
     owner_shift = 64 - index_bits
+    # Unselected half-edges all get the largest key: they sort last, as an owner
+    # ≥ N, and many equal keys sort faster than distinct ones.
+    unselected = jnp.uint64(2**64 - 1)
 
     def keys(owner):
-        owner = jnp.where(chosen, owner, n_particles).astype(jnp.uint64)
-        return (owner << owner_shift) | order_keys
+        return jnp.where(chosen, (owner.astype(jnp.uint64) << owner_shift) | order_keys, unselected)
 
     # One single-key sort: the owner is in the top bits, the order key below.
     sorted_keys = jnp.sort(jnp.concatenate([keys(pair_i), keys(pair_j)]))
@@ -247,7 +249,7 @@ def lowe_andersen_thermostat(
         if not half:  # a full list holds (i, j) and (j, i): keep one
             chosen = chosen & (pairs.i < pairs.j)
         edges = _half_edges(pairs.i, pairs.j, chosen, pair_order_keys(key, pairs.i, pairs.j, n), n)
-        # Per-half-edge geometry and targets, computed once (owner = N: inert).
+        # Per-half-edge geometry and targets, computed once (owner ≥ N: inert).
         geometry = pair_geometry(box, positions, edges, jnp.inf, True)
         unit = tuple(s * geometry.inverse_distance for s in geometry.separation)
         if masses is None:
@@ -270,11 +272,11 @@ def lowe_andersen_thermostat(
             partner = ids ^ head_pair
             ready = (head_pair != 0) & (head_pair[partner] == head_pair)
             e = [component[h] for component in unit]
-            dv = relative_velocity(v, v[partner])
-            normal = dv[:, 0] * e[0] + dv[:, 1] * e[1] + dv[:, 2] * e[2]
+            dv = relative_velocity(jnp.stack(v), jnp.stack([c[partner] for c in v]))
+            normal = dv[0] * e[0] + dv[1] * e[1] + dv[2] * e[2]
             change = jnp.where(ready, target[h] - normal, 0)
             speed = change * (share if masses is None else share[h])
-            v = v + jnp.stack([speed * c for c in e], axis=1)
+            v = tuple(c + speed * unit_c for c, unit_c in zip(v, e, strict=True))
             if with_virial:
                 # r_ij ⊗ μ Δu e_ij = μ Δu r e_a e_b, half at each of the two particles.
                 weight = change * 0.5 * geometry.distance[h]
@@ -286,8 +288,10 @@ def lowe_andersen_thermostat(
             return head + ready, v, virial_parts, rounds + 1
 
         parts = tuple(jnp.zeros(n, dtype) for _ in _VIRIAL_COMPONENTS) if with_virial else ()
-        carry = (edges.start, velocities, parts, jnp.asarray(0, jnp.int32))
-        _, velocities, parts, rounds = jax.lax.while_loop(pending, round_, carry)
+        # Velocity components as separate arrays (structure of arrays) in the loop.
+        carry = (edges.start, tuple(velocities.T), parts, jnp.asarray(0, jnp.int32))
+        _, components, parts, rounds = jax.lax.while_loop(pending, round_, carry)
+        velocities = jnp.stack(components, axis=1)
         virial = jnp.zeros((3, 3), dtype)
         for part, (a, b) in zip(parts, _VIRIAL_COMPONENTS[: len(parts)], strict=True):
             total = jnp.sum(part) * inverse_dt
