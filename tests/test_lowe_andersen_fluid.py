@@ -117,14 +117,14 @@ def thermalized_pair_velocities(scene, state, rng):
     positions, velocities = np.asarray(state.positions), np.asarray(state.velocities)
     side = np.asarray(scene.box.lengths)
     i, j = np.triu_indices(len(positions), 1)
+    key = noise.step_key(scene.seed, int(state.step))
+    probability = scene.solvent.collision_frequency * scene.integrator.dt
+    # Drawn for all pairs (one array shape for every snapshot), kept within r_c.
+    chosen = np.asarray(la.selected(key, jnp.asarray(i), jnp.asarray(j), probability, np.float64))
     separation = positions[i] - positions[j]
     separation -= side * np.round(separation / side)
     distance = np.linalg.norm(separation, axis=1)
-    near = distance < scene.cutoff
-    i, j, separation, distance = i[near], j[near], separation[near], distance[near]
-    key = noise.step_key(scene.seed, int(state.step))
-    probability = scene.solvent.collision_frequency * scene.integrator.dt
-    chosen = np.asarray(la.selected(key, jnp.asarray(i), jnp.asarray(j), probability, np.float64))
+    chosen = chosen & (distance < scene.cutoff)
     keep = disjoint_pairs(i[chosen], j[chosen], len(positions), rng)
     i, j = i[chosen][keep], j[chosen][keep]
     unit = separation[chosen][keep] / distance[chosen][keep, None]
