@@ -57,7 +57,9 @@ class Simulation:
         neighbor_search: the neighbour backend (None when no pair term exists).
         init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
         step_fn: `step_fn(state) -> (state, samples)`, pure and jittable; samples is
-            a dict of per-step arrays (kinetic and virial tensors as requested).
+            a dict of per-step arrays (kinetic and virial tensors as requested; with
+            a Lowe–Andersen thermostat and "pressure", also "impulse_virial", the
+            thermostat's part of "virial").
         reallocate: `reallocate(state, (pairs, cell_occupancy)) -> state` with
             neighbour buffers re-sized from the state's positions to hold at least
             the given needs (host side, after an overflow).

@@ -19,13 +19,15 @@ class SimState:
         species: (N,) int32 species index.
         pair_list: neighbour pairs.
         virial: (3, 3) virial Σ r_ij ⊗ F_ij of the last step's pair forces
-            (zeros unless the scene asks for the pressure).
+            (zeros unless the scene asks for the pressure); with a Lowe–Andersen
+            thermostat it includes the impulse part Σ r_ij ⊗ Δp_ij/Δt.
         step: int32 step counter (also the counter of the pair noise).
         time: simulated time.
         seed: uint32 seed of the counter-based noise.
         flags: int32 error bits (see jaxdpd.errors).
         solvent_state: state a solvent method keeps beside the particles (e.g. a
-            lattice-Boltzmann fluid), a pytree; None for particle solvents.
+            lattice-Boltzmann fluid, or the Lowe–Andersen thermostat's record of its
+            last sweep), a pytree; None for other particle solvents.
     """
 
     positions: jnp.ndarray

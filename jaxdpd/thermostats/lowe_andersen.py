@@ -207,6 +207,95 @@ def _half_edges(pair_i, pair_j, chosen, order_keys, n_particles: int) -> _HalfEd
     return _HalfEdges(owner, owner ^ tie_break, tie_break, stop - counts, stop)
 
 
+class _EdgeData(NamedTuple):
+    """What a half-edge's pair needs in the sweep, gathered per round by head index.
+
+    Attributes:
+        unit: (e_x, e_y, e_z), each (H,), e_ij from the partner j to the owner i.
+        distance: (H,) r_ij.
+        target: (H,) new relative normal velocity u'_ij.
+        reduced_mass: μ_ij, (H,) or the scalar ½ (unit masses).
+        share: μ_ij/m_i, the owner's part of the velocity change, (H,) or ½.
+    """
+
+    unit: tuple
+    distance: jnp.ndarray
+    target: jnp.ndarray
+    reduced_mass: object
+    share: object
+
+
+def _edge_data(box, positions, edges: _HalfEdges, key, kT, masses, dtype) -> _EdgeData:
+    """Geometry, masses and Maxwellian targets of every half-edge (owner ≥ N: inert)."""
+    geometry = pair_geometry(box, positions, edges, jnp.inf, True)
+    unit = tuple(s * geometry.inverse_distance for s in geometry.separation)
+    if masses is None:
+        reduced_mass, share = 0.5, 0.5
+    else:
+        mass_i, mass_j = masses[geometry.i], masses[geometry.j]
+        reduced_mass = mass_i * mass_j / (mass_i + mass_j)
+        share = mass_j / (mass_i + mass_j)
+    target = target_relative_velocity(key, geometry.i, geometry.j, kT, reduced_mass, dtype)
+    return _EdgeData(unit, geometry.distance, target, reduced_mass, share)
+
+
+def _per_edge(value, h):
+    """value[h] for per-half-edge arrays; scalars (unit masses) pass through."""
+    return value[h] if jnp.ndim(value) else value
+
+
+def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool):
+    """The rounds of the sequential-equivalent sweep (see the module docstring).
+
+    Args:
+        edges: the sorted half-edges.
+        data: their pair data.
+        velocities: (N, 3) before the sweep.
+        with_virial: also accumulate Σ r_ij ⊗ μ Δu e_ij.
+    Returns:
+        ((N, 3) velocities after the sweep, the (3, 3) Σ r_ij ⊗ μ_ij Δu_ij e_ij,
+        int32 number of rounds).
+    """
+    n, dtype = velocities.shape[0], velocities.dtype
+    ids = jnp.arange(n, dtype=jnp.int32)
+    last = edges.i.shape[0] - 1
+
+    def pending(carry):
+        return jnp.any(carry[0] < edges.stop)
+
+    def round_(carry):
+        head, v, virial_parts, rounds = carry
+        h = jnp.minimum(head, last)
+        # i XOR j of each particle's first pending pair (0: none pending).
+        head_pair = jnp.where(head < edges.stop, edges.tie_break[h], 0)
+        partner = ids ^ head_pair
+        ready = (head_pair != 0) & (head_pair[partner] == head_pair)
+        e = [component[h] for component in data.unit]
+        dv = relative_velocity(jnp.stack(v), jnp.stack([c[partner] for c in v]))
+        normal = dv[0] * e[0] + dv[1] * e[1] + dv[2] * e[2]
+        change = jnp.where(ready, data.target[h] - normal, 0)
+        speed = change * _per_edge(data.share, h)
+        v = tuple(c + speed * unit_c for c, unit_c in zip(v, e, strict=True))
+        if with_virial:
+            # r_ij ⊗ μ Δu e_ij = μ Δu r e_a e_b, half at each of the two particles.
+            weight = change * 0.5 * data.distance[h] * _per_edge(data.reduced_mass, h)
+            virial_parts = tuple(
+                part + weight * e[a] * e[b]
+                for part, (a, b) in zip(virial_parts, _VIRIAL_COMPONENTS, strict=True)
+            )
+        return head + ready, v, virial_parts, rounds + 1
+
+    parts = tuple(jnp.zeros(n, dtype) for _ in _VIRIAL_COMPONENTS) if with_virial else ()
+    # Velocity components as separate arrays (structure of arrays) in the loop.
+    carry = (edges.start, tuple(velocities.T), parts, jnp.asarray(0, jnp.int32))
+    _, components, parts, rounds = jax.lax.while_loop(pending, round_, carry)
+    virial = jnp.zeros((3, 3), dtype)
+    for part, (a, b) in zip(parts, _VIRIAL_COMPONENTS[: len(parts)], strict=True):
+        total = jnp.sum(part)
+        virial = virial.at[a, b].set(total).at[b, a].set(total)
+    return jnp.stack(components, axis=1), virial, rounds
+
+
 def lowe_andersen_thermostat(
     box,
     n_particles: int,
@@ -241,62 +330,17 @@ def lowe_andersen_thermostat(
     n = n_particles
     kT_ = jnp.asarray(kT, dtype)
     inverse_dt = jnp.asarray(1.0 / dt, dtype)
-    ids = jnp.arange(n, dtype=jnp.int32)
 
     def thermalize(positions, velocities, pair_list, key):
         pairs = pair_geometry(box, positions, pair_list, cutoff, half)
         chosen = pairs.within & selected(key, pairs.i, pairs.j, collision_probability, dtype)
         if not half:  # a full list holds (i, j) and (j, i): keep one
             chosen = chosen & (pairs.i < pairs.j)
-        edges = _half_edges(pairs.i, pairs.j, chosen, pair_order_keys(key, pairs.i, pairs.j, n), n)
-        # Per-half-edge geometry and targets, computed once (owner ≥ N: inert).
-        geometry = pair_geometry(box, positions, edges, jnp.inf, True)
-        unit = tuple(s * geometry.inverse_distance for s in geometry.separation)
-        if masses is None:
-            reduced_mass, share = 0.5, 0.5  # μ_ij and μ_ij/m_i
-        else:
-            mass_i, mass_j = masses[geometry.i], masses[geometry.j]
-            reduced_mass = mass_i * mass_j / (mass_i + mass_j)
-            share = mass_j / (mass_i + mass_j)
-        target = target_relative_velocity(key, geometry.i, geometry.j, kT_, reduced_mass, dtype)
-        last = edges.i.shape[0] - 1
-
-        def pending(carry):
-            return jnp.any(carry[0] < edges.stop)
-
-        def round_(carry):
-            head, v, virial_parts, rounds = carry
-            h = jnp.minimum(head, last)
-            # i XOR j of each particle's first pending pair (0: none pending).
-            head_pair = jnp.where(head < edges.stop, edges.tie_break[h], 0)
-            partner = ids ^ head_pair
-            ready = (head_pair != 0) & (head_pair[partner] == head_pair)
-            e = [component[h] for component in unit]
-            dv = relative_velocity(jnp.stack(v), jnp.stack([c[partner] for c in v]))
-            normal = dv[0] * e[0] + dv[1] * e[1] + dv[2] * e[2]
-            change = jnp.where(ready, target[h] - normal, 0)
-            speed = change * (share if masses is None else share[h])
-            v = tuple(c + speed * unit_c for c, unit_c in zip(v, e, strict=True))
-            if with_virial:
-                # r_ij ⊗ μ Δu e_ij = μ Δu r e_a e_b, half at each of the two particles.
-                weight = change * 0.5 * geometry.distance[h]
-                weight = weight * (reduced_mass if masses is None else reduced_mass[h])
-                virial_parts = tuple(
-                    part + weight * e[a] * e[b]
-                    for part, (a, b) in zip(virial_parts, _VIRIAL_COMPONENTS, strict=True)
-                )
-            return head + ready, v, virial_parts, rounds + 1
-
-        parts = tuple(jnp.zeros(n, dtype) for _ in _VIRIAL_COMPONENTS) if with_virial else ()
-        # Velocity components as separate arrays (structure of arrays) in the loop.
-        carry = (edges.start, tuple(velocities.T), parts, jnp.asarray(0, jnp.int32))
-        _, components, parts, rounds = jax.lax.while_loop(pending, round_, carry)
-        velocities = jnp.stack(components, axis=1)
-        virial = jnp.zeros((3, 3), dtype)
-        for part, (a, b) in zip(parts, _VIRIAL_COMPONENTS[: len(parts)], strict=True):
-            total = jnp.sum(part) * inverse_dt
-            virial = virial.at[a, b].set(total).at[b, a].set(total)
-        record = LoweAndersenRecord(virial, jnp.sum(chosen, dtype=jnp.int32), rounds)
-        return velocities, record
+        order_keys = pair_order_keys(key, pairs.i, pairs.j, n)
+        edges = _half_edges(pairs.i, pairs.j, chosen, order_keys, n)
+        data = _edge_data(box, positions, edges, key, kT_, masses, dtype)
+        velocities, impulse_moment, rounds = _sweep(edges, data, velocities, with_virial)
+        pair_count = jnp.sum(chosen, dtype=jnp.int32)
+        return velocities, LoweAndersenRecord(impulse_moment * inverse_dt, pair_count, rounds)
 
     return thermalize
