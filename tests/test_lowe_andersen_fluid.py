@@ -232,6 +232,7 @@ def test_ideal_gas_relaxes_to_the_maxwell_distribution(probability):
 @pytest.mark.parametrize("probability", [0.1, 0.5, 1.0])
 def test_temperature_within_half_percent_at_dt_001(probability):
     """Thesis §4.3: ⟨k_BT⟩ within 0.5 % at Δt = 0.01 for ΓΔt = 0.1, 0.5 and 1
-    (1000 particles, 10⁴ steps; standard error ≈ 0.03–0.05 %, required below 0.1 %)."""
+    (1000 particles, 10⁴ steps; standard errors 0.08 %, 0.04 %, 0.03 % measured,
+    required below 0.15 %: a 0.5 % deviation is then ≥ 3.3 standard errors)."""
     _, series, _ = run_fluid(dumbbell_fluid(probability, 1000), 500, 10_000, 500)
-    assert_temperature_within_half_percent(series["temperature"], 1e-3)
+    assert_temperature_within_half_percent(series["temperature"], 1.5e-3)
