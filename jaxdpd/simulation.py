@@ -18,6 +18,11 @@ from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.observables.chain_correlators import (
+    init_chain_correlators,
+    sample_every,
+    update_chain_correlators,
+)
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.pairs import soft_repulsion_term
@@ -56,6 +61,8 @@ class Simulation:
         reallocate: `reallocate(state, (pairs, cell_occupancy)) -> state` with
             neighbour buffers re-sized from the state's positions to hold at least
             the given needs (host side, after an overflow).
+        init_observers: `init_observers(state) -> state` with empty on-device
+            accumulators (`state.observers`), e.g. to discard the equilibration.
     """
 
     scene: Scene
@@ -67,6 +74,7 @@ class Simulation:
     init_fn: Callable
     step_fn: Callable
     reallocate: Callable
+    init_observers: Callable
 
 
 def pair_terms(scene: Scene, dtype) -> list:
@@ -187,7 +195,25 @@ def build(scene: Scene) -> Simulation:
         samples = step_samples(observables, state, masses)
         if "conformation" in observables:
             samples.update(conformation_samples(box, state.positions, blocks))
+        if "dynamics" in observables:
+            observers = sample_every(
+                state.step,
+                scene.output.correlator_every,
+                state.observers,
+                lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
+            )
+            state = state.set(observers=observers)
         return state, samples
+
+    def init_observers(state):
+        """The state with empty on-device accumulators (e.g. after equilibration)."""
+        if "dynamics" not in observables:
+            return state
+        return state.set(
+            observers=init_chain_correlators(
+                box, state.positions, state.image, blocks, scene.output.correlator_levels
+            )
+        )
 
     def allocate_pairs(positions, minimum=None):
         if search is None:
@@ -209,6 +235,7 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
         )
+        state = init_observers(state)
         if scene.solvent.method == "dpd":
             forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
             state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
@@ -217,7 +244,9 @@ def build(scene: Scene) -> Simulation:
     def reallocate(state, minimum):
         return state.set(pair_list=allocate_pairs(state.positions, minimum))
 
-    return Simulation(scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate)
+    return Simulation(
+        scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate, init_observers
+    )
 
 
 def _empty_pair_list(positions):
