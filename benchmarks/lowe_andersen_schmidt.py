@@ -3,10 +3,10 @@
 System: ρ = 3, a = 25, k_BT = 1, Δt = 0.01, r_T = r_c = 1, N particles in a periodic
 box, for each bath collision frequency Γ (ΓΔt ≤ 1).
 
-- Shear viscosity by Green–Kubo, η = (V/k_BT) ∫₀^t_max ⟨P_αβ(0) P_αβ(t)⟩ dt, averaged
-  over the three off-diagonal components of the full pressure tensor (kinetic,
-  conservative and Lowe–Andersen impulse parts, thesis eq. 3.47), each step's
-  tensor held over its step (trapezoidal rule on the per-step samples).  The
+- Shear viscosity by Green–Kubo (jaxdpd.observables.green_kubo), η = (V/k_BT)
+  ∫₀^t_max ⟨P_αβ(0) P_αβ(t)⟩ dt over the off-diagonal components of the full
+  pressure tensor (kinetic, conservative and Lowe–Andersen impulse parts, thesis
+  eq. 3.47).  The
   impulse part is uncorrelated from step to step, so most of the integral is
   reached at the first lag; the rest decays within ~0.2 time units, hence t_max =
   0.5 (the value at t_max/2 is reported as a plateau check).  The integral is
@@ -37,15 +37,15 @@ import numpy as np
 from _common import print_table, write_json
 
 from jaxdpd import driver
-from jaxdpd.observables.dynamics import bead_msd, diffusion_coefficient, time_autocorrelation
+from jaxdpd.observables.dynamics import bead_msd, diffusion_coefficient
 from jaxdpd.observables.fits import fit_power_law
+from jaxdpd.observables.green_kubo import running_integral, shear_viscosity
 from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
 
 DENSITY, REPULSION, DT, KT = 3.0, 25.0, 0.01, 1.0
 CHUNK = 100  # steps between stored positions (1 time unit)
-OFF_DIAGONAL = ((0, 1), (0, 2), (1, 2))
 
 
 def fluid(frequency: float, count: int, precision: str) -> Scene:
@@ -67,32 +67,6 @@ def lowe_viscosity(frequency: float) -> float:
     return math.pi * DENSITY**2 * frequency / 75
 
 
-def green_kubo(stress, volume: float, max_lag: int, blocks: int):
-    """η from the off-diagonal stress autocorrelation, mean ± s.e. over blocks.
-
-    Args:
-        stress: (T, 3, 3) pressure tensors, one per step.
-        volume: V.
-        max_lag: number of steps integrated (t_max = max_lag Δt).
-        blocks: number of consecutive blocks.
-    Returns:
-        (η, s.e., running integral of the whole run (max_lag,)).
-    """
-    shear = np.stack([stress[:, a, b] for a, b in OFF_DIAGONAL], axis=1)
-    length = len(shear) // blocks
-
-    def integral(series):
-        correlation = np.asarray(time_autocorrelation(series - series.mean(axis=0)))
-        mean = correlation[:max_lag].mean(axis=1)
-        running = DT * (np.cumsum(mean) - 0.5 * mean[0] - 0.5 * mean)
-        return volume / KT * running
-
-    blocks_of = [shear[k * length : (k + 1) * length] for k in range(blocks)]
-    per_block = np.array([integral(block)[-1] for block in blocks_of])
-    mean, error = block_average(per_block, n_blocks=blocks)
-    return float(mean), float(error), integral(shear)
-
-
 def measure(frequency: float, args) -> dict:
     scene = fluid(frequency, args.count, args.precision)
     simulation = build(scene)
@@ -109,7 +83,8 @@ def measure(frequency: float, args) -> dict:
     driver.run(simulation, state, args.steps, CHUNK, on_chunk=collect)
     stress = np.concatenate(stresses).astype(np.float64)
     max_lag = round(args.max_time / DT)
-    eta, eta_error, running = green_kubo(stress, scene.volume, max_lag, args.blocks)
+    eta, eta_error = shear_viscosity(stress, scene.volume, KT, DT, max_lag, args.blocks)
+    running = running_integral(stress, scene.volume, KT, DT, max_lag)
     trajectory = np.stack(positions)[:, :, None, :]  # (T, N, 1 bead, 3)
     msd = np.asarray(bead_msd(trajectory))
     lag_times = np.arange(len(msd)) * CHUNK * DT

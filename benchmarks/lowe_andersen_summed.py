@@ -46,7 +46,7 @@ def summed_thermalization(box, probability, dtype):
         chosen = pairs.within & la.selected(key, pairs.i, pairs.j, probability, dtype)
         target = la.target_relative_velocity(key, pairs.i, pairs.j, KT, 0.5, dtype)
         change = jnp.where(chosen, 0.5 * (target - pairs.along_pair(velocities)), 0)
-        return velocities + accumulate(pairs, change)[0]
+        return velocities + accumulate(pairs, change)
 
     return thermalize
 
@@ -96,12 +96,10 @@ def main() -> None:
     pair_list = search.allocate(positions, 1.5, minimum)
     rows = []
     for probability in args.probabilities:
-        sequential = la.lowe_andersen_thermostat(
-            box, n, probability, KT, CUTOFF, DT, jnp.float64, True
-        )
+        sequential = la.lowe_andersen_thermostat(n, probability, KT, CUTOFF, DT, jnp.float64, True)
 
         def sequential_velocities(positions, velocities, pair_list, key, update=sequential):
-            return update(positions, velocities, pair_list, key)[0]
+            return update(box, positions, velocities, pair_list, key)[0]
 
         for name, thermalize in (
             ("sequential", sequential_velocities),

@@ -8,7 +8,7 @@ error bits of its own (e.g. an overstretched spring).
 
 import jax.numpy as jnp
 
-from jaxdpd import errors
+from jaxdpd import errors, flows
 
 
 def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
@@ -33,11 +33,6 @@ def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
     return state.flags | bits.astype(jnp.int32)
 
 
-def _acceleration(forces, masses):
-    """a = f/m; `masses` (N,) or None for unit masses (no division traced)."""
-    return forces if masses is None else forces / masses[:, None]
-
-
 def modified_velocity_verlet(
     box, dt: float, lambda_: float, interactions, kT: float, dtype, masses=None
 ):
@@ -52,19 +47,43 @@ def modified_velocity_verlet(
     DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.  `kT` is the
     temperature scale of the runaway check (see jaxdpd.errors).  `masses` is the
     (N,) array of particle masses, or None for unit masses (no division traced).
+
+    In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
+    terms of jaxdpd.flows are added: streaming in the position update, −L c in
+    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update;
+    the box state advances with the step.  A box at rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
 
+    def acceleration(forces):
+        return forces if masses is None else forces / masses[:, None]
+
     def step(state):
-        accelerations = _acceleration(state.forces, masses)
-        moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * accelerations
-        positions, image = box.wrap(moved, state.image)
-        predicted = state.velocities + (lam * dt_) * accelerations
-        advanced = state.set(positions=positions, image=image, step=state.step + 1)
+        bound = box.bind(state.box_state)
+        accelerations = acceleration(state.forces)
+        displacement_acceleration = accelerations
+        curvature = flows.streaming_curvature(bound, state.positions)
+        if curvature is not None:
+            displacement_acceleration = accelerations + curvature
+        drift = flows.drift_velocity(bound, state.positions, state.velocities)
+        moved = state.positions + dt_ * drift + (0.5 * dt_ * dt_) * displacement_acceleration
+        box_state = box.advance(state.box_state, state.time, dt_)
+        new_bound = box.bind(box_state)
+        positions, image = new_bound.wrap(moved, state.image)
+        rate_of_change = accelerations
+        drag = flows.sllod_drag(bound, state.velocities)
+        if drag is not None:
+            rate_of_change = accelerations + drag
+        predicted = state.velocities + (lam * dt_) * rate_of_change
+        advanced = state.set(
+            positions=positions, image=image, box_state=box_state, step=state.step + 1
+        )
         new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
-        new_accelerations = _acceleration(new_forces, masses)
-        velocities = state.velocities + (0.5 * dt_) * (accelerations + new_accelerations)
+        right_hand_side = state.velocities + (0.5 * dt_) * (
+            rate_of_change + acceleration(new_forces)
+        )
+        velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
@@ -78,7 +97,7 @@ def modified_velocity_verlet(
 
 
 def thermalized_velocity_verlet(
-    box, dt: float, interactions, thermalize, kT: float, dtype, masses=None
+    box, dt: float, interactions, thermalize, kT: float, dtype, masses=None, with_virial=False
 ):
     """Velocity Verlet followed by a pair thermalisation: Lowe–Andersen DPD (Lowe,
     Europhys. Lett. 47, 145 (1999); thesis table 2.1), with a = f/m:
@@ -89,6 +108,8 @@ def thermalized_velocity_verlet(
         ṽ        = v(t+½Δt) + ½ Δt a(t+Δt)
         v(t+Δt)  = thermalize(r(t+Δt), ṽ)     (pairs within r_T at r(t+Δt))
 
+    The first four lines are `modified_velocity_verlet` at λ = ½ (λ plays no role
+    without velocity-dependent forces), SLLOD terms included in a flowing box.
     Table 2.1 is the same sequence read as a leapfrog: its steps 1–3 (half kick,
     thermalise, half kick, both kicks with F(t)) turn v(t−½Δt) into v(t+½Δt) with the
     thermalisation acting on the on-step velocity v(t) at r(t), which is the velocity
@@ -97,46 +118,39 @@ def thermalized_velocity_verlet(
     is biased by O(Δt²) (+1.3 % at Δt = 0.01, ΓΔt = 1, ρ = 3, a = 25, measured).
 
     Args:
-        box: the box (wraps positions).
+        box: the box (see jaxdpd.boxes).
         dt: Δt.
         interactions: the composed force kernel (see the module docstring).
         thermalize: `thermalize(state, velocities) -> (velocities, record)`, given the
-            state at the end of the step (its positions, refreshed pair list and step
-            counter); record.impulse_virial (3, 3) is added to the step's virial and
-            the record is kept in `state.solvent_state`.
+            state at the end of the step (its positions, box state, refreshed pair
+            list and step counter); the record is kept in `state.solvent_state`.
         kT: temperature scale of the runaway check (see jaxdpd.errors).
         dtype: floating dtype.
         masses: (N,) particle masses, or None for unit masses.
+        with_virial: record.impulse_virial (3, 3) becomes the virial part "impulse"
+            (thesis eq. 3.47, third term).
     """
-    dt_ = jnp.asarray(dt, dtype)
+    verlet = modified_velocity_verlet(box, dt, 0.5, interactions, kT, dtype, masses)
 
     def step(state):
-        half_kicked = state.velocities + (0.5 * dt_) * _acceleration(state.forces, masses)
-        positions, image = box.wrap(state.positions + dt_ * half_kicked, state.image)
-        advanced = state.set(positions=positions, image=image, step=state.step + 1)
-        new_forces, virial, pair_list, bits = interactions(positions, half_kicked, advanced)
-        advanced = advanced.set(pair_list=pair_list)
-        kicked = half_kicked + (0.5 * dt_) * _acceleration(new_forces, masses)
-        velocities, record = thermalize(advanced, kicked)
-        return advanced.set(
-            velocities=velocities,
-            forces=new_forces,
-            virial=virial + record.impulse_virial,
-            solvent_state=record,
-            time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
-        )
+        advanced = verlet(state)
+        velocities, record = thermalize(advanced, advanced.velocities)
+        virial = advanced.virial
+        if with_virial:
+            virial = {**virial, "impulse": record.impulse_virial}
+        return advanced.set(velocities=velocities, virial=virial, solvent_state=record)
 
     return step
 
 
 def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
-    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
+    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses,
+    a box at rest).
 
         v_i ← v_i + Σ_j Ω_ij e_ij,     r_i ← r_i + v_i δt.
 
-    The recorded virial is that of the collision impulses divided by δt (the mean
-    force they exert over the step).
+    The recorded virial parts are those of the collision impulses divided by δt (the
+    mean force they exert over the step).
     """
     dt_ = jnp.asarray(dt, dtype)
 
@@ -149,7 +163,7 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
             velocities=velocities,
             image=image,
             pair_list=pair_list,
-            virial=virial / dt_,
+            virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, pair_list, kT, bits),

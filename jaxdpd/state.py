@@ -19,8 +19,7 @@ class SimState:
         species: (N,) int32 species index.
         pair_list: neighbour pairs.
         virial: (3, 3) virial Σ r_ij ⊗ F_ij of the last step's pair forces
-            (zeros unless the scene asks for the pressure); with a Lowe–Andersen
-            thermostat it includes the impulse part Σ r_ij ⊗ Δp_ij/Δt.
+            (zeros unless the scene asks for the pressure).
         step: int32 step counter (also the counter of the pair noise).
         time: simulated time.
         seed: uint32 seed of the counter-based noise.
@@ -28,6 +27,10 @@ class SimState:
         solvent_state: state a solvent method keeps beside the particles (e.g. a
             lattice-Boltzmann fluid, or the Lowe–Andersen thermostat's record of its
             last sweep), a pytree; None for other particle solvents.
+        box_state: traced state of a flowing box (e.g. the Lees–Edwards offset and
+            shear rate); None for a box at rest.
+        observers: accumulators of observables measured on device while the run goes
+            (e.g. multiple-tau correlators), a dict pytree; None when none is asked.
     """
 
     positions: jnp.ndarray
@@ -42,3 +45,5 @@ class SimState:
     seed: jnp.ndarray
     flags: jnp.ndarray
     solvent_state: object = None
+    box_state: object = None
+    observers: object = None

@@ -146,32 +146,39 @@ def test_thermalised_pairs_have_maxwellian_relative_velocities(fluid):
     assert abs(np.mean(samples**2) - 1) < 5 * np.sqrt(2 / len(samples))
 
 
-def test_impulse_virial_is_recorded_apart_and_in_the_total(fluid):
-    """The pressure tensor holds kinetic + conservative + bond + impulse parts (thesis
-    eq. 3.49); removing the recorded impulse part leaves the conservative and bond
-    virials, computed here by brute force at the final configuration."""
+def test_impulse_virial_is_a_part_of_the_pressure_tensor(fluid):
+    """The pressure tensor holds kinetic, conservative, bond and Lowe–Andersen impulse
+    parts (thesis eqs. 3.47–3.49); the conservative and bond parts equal their
+    brute-force values at the final configuration, and the impulse part, reported
+    on its own, closes the sum."""
     scene, _, series, snapshots = fluid
     state = snapshots[-1]
     positions, velocities = np.asarray(state.positions), np.asarray(state.velocities)
     side = np.asarray(scene.box.lengths)
     volume = float(np.prod(side))
-    total = series["pressure_tensor"][-1] * volume - velocities.T @ velocities
-    impulse = series["impulse_virial"][-1]
+    part = {
+        name: series[f"pressure_tensor_part/{name}"][-1] * volume
+        for name in ("kinetic", "conservative", "bond", "impulse")
+    }
     i, j = np.triu_indices(len(positions), 1)
     separation = positions[i] - positions[j]
     separation -= side * np.round(separation / side)
     distance = np.linalg.norm(separation, axis=1)
     near = distance < scene.cutoff
     magnitude = soft_repulsion(1 - distance[near] / scene.cutoff, REPULSION) / distance[near]
-    expected = np.einsum("pa,pb,p->ab", separation[near], separation[near], magnitude)
+    conservative = np.einsum("pa,pb,p->ab", separation[near], separation[near], magnitude)
+    np.testing.assert_allclose(part["conservative"], conservative, rtol=1e-10, atol=1e-8)
     beads = scene.particles.species[0].count
     spring = positions[1:beads:2] - positions[0:beads:2]
     spring -= side * np.round(spring / side)
-    q_sq = np.sum(spring**2, axis=1)
-    tension = FENE["spring_constant"] / (1 - q_sq / FENE["max_extension"] ** 2)
-    expected -= np.einsum("pa,pb,p->ab", spring, spring, tension)  # −Σ Q ⊗ H Q/(1 − Q²/Q0²)
-    np.testing.assert_allclose(total - impulse, expected, rtol=1e-10, atol=1e-8)
-    assert np.abs(impulse).max() > 1.0  # a thermostat at ΓΔt = 1 exchanges momentum
+    tension = FENE["spring_constant"] / (1 - np.sum(spring**2, axis=1) / FENE["max_extension"] ** 2)
+    bond = -np.einsum("pa,pb,p->ab", spring, spring, tension)  # −Σ Q ⊗ H Q/(1 − Q²/Q0²)
+    np.testing.assert_allclose(part["bond"], bond, rtol=1e-10, atol=1e-8)
+    np.testing.assert_allclose(part["kinetic"], velocities.T @ velocities, rtol=1e-12)
+    np.testing.assert_allclose(
+        series["pressure_tensor"][-1] * volume, sum(part.values()), rtol=1e-12, atol=1e-9
+    )
+    assert np.abs(part["impulse"]).max() > 1.0  # a thermostat at ΓΔt = 1 exchanges momentum
 
 
 def ideal_gas(probability: float) -> Scene:

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from jaxdpd import noise
-from jaxdpd.boxes import PeriodicBox
+from jaxdpd.boxes import LeesEdwardsBox, PeriodicBox
 from jaxdpd.thermostats import lowe_andersen as la
 
 N, DENSITY, KT, DT, CUTOFF = 240, 3.0, 1.3, 0.01, 1.0
@@ -26,6 +26,25 @@ BOX = PeriodicBox((SIDE, SIDE, SIDE))
 KEY = noise.step_key(seed=5, step=17)
 # Two species: the first 80 particles of mass 1, the rest of mass 3.
 MASSES = np.where(np.arange(N) < 80, 1.0, 3.0)
+SHEAR_RATE = 0.7
+
+
+def periodic_separation(separation):
+    """Minimum image in the periodic box, (..., 3)."""
+    return separation - SIDE * np.round(separation / SIDE)
+
+
+def sheared_box():
+    """A Lees–Edwards box at offset 1.3 (images across y shifted in x), bound."""
+    box = LeesEdwardsBox((SIDE, SIDE, SIDE), SHEAR_RATE, None)
+    return box, box.initial_state(jnp.float64).set(offset=jnp.asarray(1.3))
+
+
+def sheared_separation(separation):
+    """Minimum image across the moving boundary (the box's own rule, thesis eq.
+    3.19; tested in tests/test_lees_edwards_geometry.py)."""
+    box, state = sheared_box()
+    return np.asarray(box.bind(state).minimum_image_vectors(jnp.asarray(separation)))
 
 
 @pytest.fixture(scope="module")
@@ -49,28 +68,37 @@ def pair_lists(configuration):
     pair twice, as jax-md's dense and sparse formats) of the pairs within r_c + 0.2,
     found by brute force and padded with N, like the neighbour backends' lists."""
     positions = configuration[0]
-    separation = positions[:, None] - positions[None]
-    separation -= SIDE * np.round(separation / SIDE)
-    close = np.linalg.norm(separation, axis=-1) < CUTOFF + 0.2
-    np.fill_diagonal(close, False)
-    i, j = np.nonzero(np.triu(close))
-    padding = np.full(25, N)
-    half = Pairs(*(jnp.asarray(np.concatenate([x, padding]), jnp.int32) for x in (i, j)))
-    i, j = np.nonzero(close)
-    full = Pairs(*(jnp.asarray(np.concatenate([x, padding]), jnp.int32) for x in (i, j)))
-    return {"half": half, "full": full}
+    lists = {}
+    for name, separate in (("periodic", periodic_separation), ("sheared", sheared_separation)):
+        separation = separate(positions[:, None] - positions[None])
+        close = np.linalg.norm(separation, axis=-1) < CUTOFF + 0.2
+        np.fill_diagonal(close, False)
+        padding = np.full(25, N)
+        for kind, pairs in (("half", np.triu(close)), ("full", close)):
+            i, j = np.nonzero(pairs)
+            lists[name, kind] = Pairs(
+                *(jnp.asarray(np.concatenate([x, padding]), jnp.int32) for x in (i, j))
+            )
+    return {"half": lists["periodic", "half"], "full": lists["periodic", "full"], **lists}
 
 
-def sequential_sweep(positions, velocities, masses, probability, reverse=False):
+def sequential_sweep(
+    positions, velocities, masses, probability, reverse=False, separate=periodic_separation
+):
     """Lowe's algorithm pair by pair, in increasing order key (decreasing if reverse).
+
+    With `separate = sheared_separation` the velocities are peculiar velocities c in
+    a simple shear u = γ̇ (y − L_y/2) x̂, and the pair's laboratory relative velocity
+    is c_i − c_j + γ̇ Δy x̂ with Δy the y component of the minimum image, which
+    includes the jump γ̇ L_y x̂ across the moving boundary (thesis eq. 3.18).
 
     Returns:
         (velocities after the sweep, impulse virial Σ r_ij ⊗ μ Δu e_ij / Δt,
         number of thermalised pairs).
     """
     i, j = np.triu_indices(N, 1)
-    separation = positions[i] - positions[j]
-    separation -= SIDE * np.round(separation / SIDE)
+    separation = separate(positions[i] - positions[j])
+    shear_rate = SHEAR_RATE if separate is sheared_separation else 0.0
     distance = np.linalg.norm(separation, axis=1)
     near = distance < CUTOFF
     i, j, separation, distance = i[near], j[near], separation[near], distance[near]
@@ -88,7 +116,8 @@ def sequential_sweep(positions, velocities, masses, probability, reverse=False):
     for q in order[::-1] if reverse else order:
         a, b = i[q], j[q]
         e = separation[q] / distance[q]
-        impulse = reduced[q] * (target[q] - (v[a] - v[b]) @ e)
+        laboratory = v[a] - v[b] + np.array([shear_rate * separation[q, 1], 0, 0])
+        impulse = reduced[q] * (target[q] - laboratory @ e)
         v[a] += impulse / masses[a] * e
         v[b] -= impulse / masses[b] * e
         virial += np.outer(separation[q], impulse * e) / DT
@@ -99,7 +128,6 @@ def sequential_sweep(positions, velocities, masses, probability, reverse=False):
 def compiled_thermostat(probability: float, half: bool, with_masses: bool):
     """One jitted thermalisation per variant, shared by the tests."""
     thermalize = la.lowe_andersen_thermostat(
-        BOX,
         N,
         probability,
         KT,
@@ -110,13 +138,13 @@ def compiled_thermostat(probability: float, half: bool, with_masses: bool):
         jnp.asarray(MASSES) if with_masses else None,
         with_virial=True,
     )
-    return jax.jit(thermalize)
+    return jax.jit(thermalize, static_argnums=0)  # the periodic box is static
 
 
 def thermalized(pair_list, half, configuration, probability, with_masses):
     positions, velocities = (jnp.asarray(x) for x in configuration)
     thermalize = compiled_thermostat(probability, half, with_masses)
-    return thermalize(positions, velocities, pair_list, KEY)
+    return thermalize(BOX, positions, velocities, pair_list, KEY)
 
 
 # Tolerance: float64 round-off of O(10) sequential updates of O(1) velocities per
@@ -180,10 +208,30 @@ def test_vmapped_sweeps_equal_single_sweeps(configuration, pair_lists):
     positions, velocities = (jnp.asarray(x) for x in configuration)
     keys = jnp.stack([noise.step_key(5, step) for step in (17, 18, 19)])
     thermalize = compiled_thermostat(1.0, True, True)
-    batched, records = jax.vmap(thermalize, in_axes=(None, None, None, 0))(
-        positions, velocities, pair_lists["half"], keys
-    )
+    batched, records = jax.vmap(
+        lambda key: thermalize(BOX, positions, velocities, pair_lists["half"], key)
+    )(keys)
     for k, key in enumerate(keys):
-        single, record = thermalize(positions, velocities, pair_lists["half"], key)
+        single, record = thermalize(BOX, positions, velocities, pair_lists["half"], key)
         np.testing.assert_array_equal(batched[k], single)
         assert int(records.rounds[k]) == int(record.rounds)
+
+
+def test_sheared_sweep_uses_laboratory_relative_velocities(configuration, pair_lists):
+    """In a Lees–Edwards box the thermostat acts on laboratory relative velocities
+    (thesis §3.4 and eq. 3.18) while the stored velocities are peculiar: the sweep
+    equals the sequential reference with c_i − c_j + γ̇ Δy x̂, pairs across the
+    moving boundary included."""
+    box, state = sheared_box()
+    thermalize = la.lowe_andersen_thermostat(N, 1.0, KT, CUTOFF, DT, jnp.float64, True)
+    positions, velocities = (jnp.asarray(x) for x in configuration)
+    sheared = jax.jit(
+        lambda box_state, pairs: thermalize(box.bind(box_state), positions, velocities, pairs, KEY)[
+            0
+        ]
+    )(state, pair_lists["sheared", "half"])
+    expected, _, _ = sequential_sweep(*configuration, np.ones(N), 1.0, separate=sheared_separation)
+    np.testing.assert_allclose(sheared, expected, rtol=0, atol=VELOCITY_TOLERANCE)
+    # The flow's part matters: without it (a box at rest) the result differs.
+    at_rest, _, _ = sequential_sweep(*configuration, np.ones(N), 1.0)
+    assert np.abs(at_rest - expected).max() > 1e3 * VELOCITY_TOLERANCE

@@ -151,14 +151,25 @@ def target_relative_velocity(key, i, j, kT, reduced_mass, dtype):
     return noise.pair_gaussian(key, i, j, dtype) * jnp.sqrt(kT / reduced_mass)
 
 
-def relative_velocity(velocity_i, velocity_j):
-    """Laboratory-frame relative velocity v_i − v_j of pairs, (3, ...) components.
+def relative_normal_velocity(velocity_i, velocity_j, unit, streaming=None):
+    """u_ij = (v_i − v_j)·e_ij in the laboratory frame, from stored velocities.
 
-    The one place where the thermostat forms a pair's relative velocity: a
-    Lees–Edwards box adds β γ̇ L_y x̂ here for pairs across the sliding boundary
-    (thesis eq. 3.18; β = ±1 from the image the pair separation was taken in).
+    The one place where the thermostat forms a pair's relative velocity.  In a
+    flowing box the stored velocities are peculiar (c = v − u(r)) and the flow's
+    part (L r_ij)·e_ij is added, r_ij the minimum image across the moving boundary:
+    the relative velocity across a Lees–Edwards boundary carries the jump γ̇ L_y x̂
+    (thesis eq. 3.18).  The thermostat must act on laboratory velocities, or it
+    exerts no shear stress (thesis §3.4).
+
+    Args:
+        velocity_i, velocity_j: (c_x, c_y, c_z) of the two particles, each (K,).
+        unit: (e_x, e_y, e_z), each (K,).
+        streaming: (K,) (L r_ij)·e_ij (PairGeometry.streaming), or None at rest.
+    Returns:
+        (K,) u_ij.
     """
-    return velocity_i - velocity_j
+    normal = sum((a - b) * e for a, b, e in zip(velocity_i, velocity_j, unit, strict=True))
+    return normal if streaming is None else normal + streaming
 
 
 class _HalfEdges(NamedTuple):
@@ -213,6 +224,7 @@ class _EdgeData(NamedTuple):
     Attributes:
         unit: (e_x, e_y, e_z), each (H,), e_ij from the partner j to the owner i.
         distance: (H,) r_ij.
+        streaming: (H,) (L r_ij)·e_ij in a flowing box, else None.
         target: (H,) new relative normal velocity u'_ij.
         reduced_mass: μ_ij, (H,) or the scalar ½ (unit masses).
         share: μ_ij/m_i, the owner's part of the velocity change, (H,) or ½.
@@ -220,14 +232,15 @@ class _EdgeData(NamedTuple):
 
     unit: tuple
     distance: jnp.ndarray
+    streaming: jnp.ndarray | None
     target: jnp.ndarray
     reduced_mass: object
     share: object
 
 
-def _edge_data(box, positions, edges: _HalfEdges, key, kT, masses, dtype) -> _EdgeData:
+def _edge_data(bound_box, positions, edges: _HalfEdges, key, kT, masses, dtype) -> _EdgeData:
     """Geometry, masses and Maxwellian targets of every half-edge (owner ≥ N: inert)."""
-    geometry = pair_geometry(box, positions, edges, jnp.inf, True)
+    geometry = pair_geometry(bound_box, positions, edges, jnp.inf, True)
     unit = tuple(s * geometry.inverse_distance for s in geometry.separation)
     if masses is None:
         reduced_mass, share = 0.5, 0.5
@@ -236,7 +249,7 @@ def _edge_data(box, positions, edges: _HalfEdges, key, kT, masses, dtype) -> _Ed
         reduced_mass = mass_i * mass_j / (mass_i + mass_j)
         share = mass_j / (mass_i + mass_j)
     target = target_relative_velocity(key, geometry.i, geometry.j, kT, reduced_mass, dtype)
-    return _EdgeData(unit, geometry.distance, target, reduced_mass, share)
+    return _EdgeData(unit, geometry.distance, geometry.streaming, target, reduced_mass, share)
 
 
 def _per_edge(value, h):
@@ -271,8 +284,8 @@ def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool):
         partner = ids ^ head_pair
         ready = (head_pair != 0) & (head_pair[partner] == head_pair)
         e = [component[h] for component in data.unit]
-        dv = relative_velocity(jnp.stack(v), jnp.stack([c[partner] for c in v]))
-        normal = dv[0] * e[0] + dv[1] * e[1] + dv[2] * e[2]
+        streaming = None if data.streaming is None else data.streaming[h]
+        normal = relative_normal_velocity(v, [c[partner] for c in v], e, streaming)
         change = jnp.where(ready, data.target[h] - normal, 0)
         speed = change * _per_edge(data.share, h)
         v = tuple(c + speed * unit_c for c, unit_c in zip(v, e, strict=True))
@@ -297,7 +310,6 @@ def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool):
 
 
 def lowe_andersen_thermostat(
-    box,
     n_particles: int,
     collision_probability: float,
     kT: float,
@@ -311,7 +323,6 @@ def lowe_andersen_thermostat(
     """The Lowe–Andersen thermalisation of one step (see the module docstring).
 
     Args:
-        box: the periodic box (minimum-image separations).
         n_particles: N.
         collision_probability: ΓΔt in [0, 1], the chance that a pair within the
             cut-off is thermalised in a step.
@@ -323,22 +334,24 @@ def lowe_andersen_thermostat(
         masses: (N,) particle masses, or None for unit masses (μ_ij = ½).
         with_virial: record the impulse virial (else zeros, nothing traced).
     Returns:
-        `thermalize(positions, velocities, pair_list, key) -> (velocities, record)`
-        with positions, velocities (N, 3), a PairList covering r_T, the uint32 step
-        key (jaxdpd.noise.step_key) and a `LoweAndersenRecord`.
+        `thermalize(bound_box, positions, velocities, pair_list, key) ->
+        (velocities, record)` with the box bound to its current state
+        (`box.bind(box_state)`), positions and (peculiar) velocities (N, 3), a
+        PairList covering r_T, the uint32 step key (jaxdpd.noise.step_key) and a
+        `LoweAndersenRecord`.
     """
     n = n_particles
     kT_ = jnp.asarray(kT, dtype)
     inverse_dt = jnp.asarray(1.0 / dt, dtype)
 
-    def thermalize(positions, velocities, pair_list, key):
-        pairs = pair_geometry(box, positions, pair_list, cutoff, half)
+    def thermalize(bound_box, positions, velocities, pair_list, key):
+        pairs = pair_geometry(bound_box, positions, pair_list, cutoff, half)
         chosen = pairs.within & selected(key, pairs.i, pairs.j, collision_probability, dtype)
         if not half:  # a full list holds (i, j) and (j, i): keep one
             chosen = chosen & (pairs.i < pairs.j)
         order_keys = pair_order_keys(key, pairs.i, pairs.j, n)
         edges = _half_edges(pairs.i, pairs.j, chosen, order_keys, n)
-        data = _edge_data(box, positions, edges, key, kT_, masses, dtype)
+        data = _edge_data(bound_box, positions, edges, key, kT_, masses, dtype)
         velocities, impulse_moment, rounds = _sweep(edges, data, velocities, with_virial)
         pair_count = jnp.sum(chosen, dtype=jnp.int32)
         return velocities, LoweAndersenRecord(impulse_moment * inverse_dt, pair_count, rounds)
