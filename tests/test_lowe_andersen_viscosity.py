@@ -9,6 +9,7 @@ measured from the mean shear stress equals the one from equilibrium fluctuations
 
 import numpy as np
 import pytest
+from conftest import scene_dict
 from scipy import signal
 
 from jaxdpd import driver
@@ -46,17 +47,9 @@ def test_green_kubo_integral_of_a_known_correlation():
 
 def lowe_andersen_fluid(flow=None) -> Scene:
     """ρ = 3, a = 25, Γ = 25 (ΓΔt = 0.25), Δt = 0.01, 1000 particles."""
-    data = {
-        "seed": 21,
-        "precision": "float64",
-        "particles": {"density": 3.0, "count": 1000},
-        "solvent": {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 25.0},
-        "pair": {"a": 25.0},
-        "integrator": {"dt": 0.01},
-        "output": {"observables": ["temperature", "pressure"]},
-    }
-    if flow is not None:
-        data["flow"] = flow
+    data = scene_dict(seed=21, particles={"count": 1000}, integrator={"dt": 0.01}, flow=flow)
+    data["integrator"].pop("lambda")
+    data["solvent"] = {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 25.0}
     return Scene.from_dict(data)
 
 
