@@ -31,7 +31,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation"}; rdf_bins, rdf_max;
-                trajectory_every (0 = never)
+                trajectory_every (0 = never); checkpoint_every (steps, 0 = only at
+                the end, on errors and on SIGINT/SIGTERM); both multiples of run.chunk
 """
 
 import json
@@ -164,6 +165,7 @@ class Output:
     rdf_bins: int = 100
     rdf_max: float = 3.0
     trajectory_every: int = 0
+    checkpoint_every: int = 0
 
 
 @dataclass(frozen=True)
@@ -638,21 +640,23 @@ def _read_run(section) -> Run:
 
 def _read_output(section, lengths, chunk: int) -> Output:
     check_keys(
-        section, ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every"), "output"
+        section,
+        ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every", "checkpoint_every"),
+        "output",
     )
     observables = read_list(section, "observables", "output", ["temperature", "pressure"])
     for name in observables:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")
     rdf_max = read_number(section, "rdf_max", "output", 3.0, minimum=0, exclusive_minimum=True)
-    trajectory_every = read_number(
-        section, "trajectory_every", "output", 0, minimum=0, integer=True
-    )
-    if trajectory_every % chunk:
-        raise ValueError(
-            f"output.trajectory_every = {trajectory_every}: frames are written at chunk ends, "
-            f"so it must be a multiple of run.chunk = {chunk} (or 0 for no frames)"
-        )
+    every = {}
+    for key, what in (("trajectory_every", "frames"), ("checkpoint_every", "checkpoints")):
+        every[key] = read_number(section, key, "output", 0, minimum=0, integer=True)
+        if every[key] % chunk:
+            raise ValueError(
+                f"output.{key} = {every[key]}: {what} are written at chunk ends, so it "
+                f"must be a multiple of run.chunk = {chunk} (or 0 for none)"
+            )
     if "rdf" in observables and not rdf_max < min(lengths) / 2:
         raise ValueError(
             f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
@@ -663,5 +667,5 @@ def _read_output(section, lengths, chunk: int) -> Output:
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
-        trajectory_every=trajectory_every,
+        **every,
     )

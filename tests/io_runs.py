@@ -1,0 +1,151 @@
+"""A shared, fully written run for the I/O tests (built and compiled once per session).
+
+`reference_run` runs SCENE_TOML uninterrupted, writing an H5MD file, and records on
+the way the memory held between chunk 10 and chunk 100 (traced Python/NumPy
+allocations, live JAX arrays) for the streaming test.  Tests that restart,
+interrupt or read runs of the same scene reuse its compiled step.
+"""
+
+import gc
+import tracemalloc
+from dataclasses import dataclass, field
+
+import jax
+import numpy as np
+import pytest
+
+from jaxdpd.runner import simulate
+from jaxdpd.scene import Scene
+
+# 375 particles (a 5³ box at ρ = 3), float64; 120 chunks of 20 steps.
+SCENE_TOML = """
+seed = 11
+precision = "float64"
+[particles]
+density = 3.0
+count = 375
+[solvent]
+method = "dpd"
+gamma = 4.5
+[pair]
+a = 25.0
+[integrator]
+dt = 0.04
+[run]
+steps = 2400
+chunk = 20
+[output]
+observables = ["temperature", "pressure", "rdf"]
+rdf_max = 2.0
+trajectory_every = 200
+checkpoint_every = 100
+"""
+# Memory growth is measured between these chunks (tracing starts at TRACE_FROM, so
+# that the objects of the current chunk exist, traced, at both ends; both ends write
+# a frame and a checkpoint).
+TRACE_FROM, MEMORY_WINDOW = 20, (40, 120)
+
+
+def reference_scene() -> Scene:
+    return Scene.from_toml_string(SCENE_TOML)
+
+
+@dataclass
+class MemoryProbe:
+    """Traced allocations and live JAX arrays at the two ends of MEMORY_WINDOW, and
+    the bytes of series the run produced in between (what keeping them would cost)."""
+
+    chunk: int = 0
+    traced: list = field(default_factory=list)
+    live_arrays: list = field(default_factory=list)
+    series_bytes: int = 0
+
+    def __call__(self, result) -> None:
+        self.chunk += 1
+        first, last = MEMORY_WINDOW
+        if first < self.chunk <= last:
+            self.series_bytes += sum(np.asarray(v).nbytes for v in result.series.values())
+        if self.chunk == TRACE_FROM:
+            tracemalloc.start()
+        if self.chunk in (first, last):
+            gc.collect()
+            self.traced.append(tracemalloc.get_traced_memory()[0])
+            self.live_arrays.append(len(jax.live_arrays()))
+            if self.chunk == last:
+                tracemalloc.stop()
+
+
+@dataclass
+class ReferenceRun:
+    path: object
+    scene: Scene
+    summary: object
+    memory: MemoryProbe
+
+
+@pytest.fixture(scope="session")
+def reference_run(tmp_path_factory) -> ReferenceRun:
+    scene = reference_scene()
+    path = tmp_path_factory.mktemp("reference") / "reference.h5"
+    probe = MemoryProbe()
+    summary = simulate(scene, output_path=path, progress=False, on_chunk=probe)
+    return ReferenceRun(path, scene, summary, probe)
+
+
+def assert_same_leaves(state, expected) -> None:
+    """Every leaf of two pytrees equal in path, dtype, shape and bits."""
+    ours = jax.tree_util.tree_flatten_with_path(state)
+    theirs = jax.tree_util.tree_flatten_with_path(expected)
+    assert ours[1] == theirs[1], "tree structures differ"
+    for (path, a), (_, b) in zip(ours[0], theirs[0], strict=True):
+        a, b = np.asarray(a), np.asarray(b)
+        name = jax.tree_util.keystr(path)
+        assert a.dtype == b.dtype and a.shape == b.shape, name
+        assert a.tobytes() == b.tobytes(), f"{name} differs"
+
+
+# FENE dumbbells in a DPD solvent, float32, jax-md's ordered-sparse neighbour list
+# (whose state has static fields that are functions and enums), equilibration,
+# frames and periodic checkpoints in both phases, every observable.
+POLYMER_SCENE_TOML = """
+seed = 5
+precision = "float32"
+[particles]
+density = 3.0
+count = 192
+species = [{ name = "dumbbell", count = 48 }, { name = "solvent", count = 144 }]
+[solvent]
+method = "dpd"
+gamma = 4.5
+[pair]
+a = 25.0
+[[polymers]]
+species = "dumbbell"
+beads = 2
+bond = { law = "fene", spring_constant = 10.0, max_extension = 1.5 }
+[neighbors]
+method = "jax_md"
+format = "ordered_sparse"
+[run]
+equilibration = 40
+steps = 100
+chunk = 10
+[output]
+observables = ["temperature", "pressure", "conformation", "rdf"]
+rdf_max = 1.5
+rdf_bins = 30
+trajectory_every = 20
+checkpoint_every = 30
+"""
+
+
+def polymer_scene() -> Scene:
+    return Scene.from_toml_string(POLYMER_SCENE_TOML)
+
+
+@pytest.fixture(scope="session")
+def polymer_reference_run(tmp_path_factory) -> ReferenceRun:
+    scene = polymer_scene()
+    path = tmp_path_factory.mktemp("polymer") / "polymer.h5"
+    summary = simulate(scene, output_path=path, progress=False)
+    return ReferenceRun(path, scene, summary, None)
