@@ -128,7 +128,9 @@ def main(argv=None) -> int:
     run.add_argument("--steps", type=int, help="override run.steps (production steps)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     run.add_argument(
-        "--overwrite", action="store_true", help="overwrite an output file holding an unfinished run"
+        "--overwrite",
+        action="store_true",
+        help="overwrite an output file holding an unfinished run",
     )
     demo = commands.add_parser("demo", help="run the embedded default scene")
     demo.add_argument("-o", "--output", help="H5MD output file")

@@ -1,18 +1,23 @@
-"""A shared, fully written run for the I/O tests (built and compiled once per session).
+"""Shared, fully written runs for the I/O tests (each built and compiled once per
+test session, in a temporary directory removed at exit).
 
-`reference_run` runs SCENE_TOML uninterrupted, writing an H5MD file, and records on
+`reference_run()` runs SCENE_TOML uninterrupted, writing an H5MD file, and records on
 the way the memory held between chunk 10 and chunk 100 (traced Python/NumPy
 allocations, live JAX arrays) for the streaming test.  Tests that restart,
 interrupt or read runs of the same scene reuse its compiled step.
 """
 
+import atexit
+import functools
 import gc
+import shutil
+import tempfile
 import tracemalloc
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import jax
 import numpy as np
-import pytest
 
 from jaxdpd.runner import simulate
 from jaxdpd.scene import Scene
@@ -83,10 +88,17 @@ class ReferenceRun:
     memory: MemoryProbe
 
 
-@pytest.fixture(scope="session")
-def reference_run(tmp_path_factory) -> ReferenceRun:
+def _scratch(name: str) -> Path:
+    folder = tempfile.mkdtemp(prefix=f"jaxdpd-{name}-")
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return Path(folder) / f"{name}.h5"
+
+
+@functools.cache
+def reference_run() -> ReferenceRun:
+    """SCENE_TOML run uninterrupted (150 chunks), with its memory probe."""
     scene = reference_scene()
-    path = tmp_path_factory.mktemp("reference") / "reference.h5"
+    path = _scratch("reference")
     probe = MemoryProbe()
     summary = simulate(scene, output_path=path, progress=False, on_chunk=probe)
     return ReferenceRun(path, scene, summary, probe)
@@ -143,9 +155,10 @@ def polymer_scene() -> Scene:
     return Scene.from_toml_string(POLYMER_SCENE_TOML)
 
 
-@pytest.fixture(scope="session")
-def polymer_reference_run(tmp_path_factory) -> ReferenceRun:
+@functools.cache
+def polymer_reference_run() -> ReferenceRun:
+    """POLYMER_SCENE_TOML run uninterrupted."""
     scene = polymer_scene()
-    path = tmp_path_factory.mktemp("polymer") / "polymer.h5"
+    path = _scratch("polymer")
     summary = simulate(scene, output_path=path, progress=False)
     return ReferenceRun(path, scene, summary, None)

@@ -2,18 +2,19 @@
 
 import h5py
 import numpy as np
-from io_runs import reference_run  # noqa: F401  (session fixture)
+from io_runs import reference_run
 
 from jaxdpd.cli import demo_scene, main
 from jaxdpd.io import read_observable, read_scene, read_trajectory
 from jaxdpd.statistics import block_average
 
 
-def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(reference_run):
+def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint():
     """Layout of H5MD 1.1 (nongnu.org/h5md, "H5MD root level", "Particles group",
     "Simulation box"): metadata, box with step/time hard-linked to position's, image
     likewise, species, observables with step and time = step × dt, g(r), checkpoint."""
-    scene, path = reference_run.scene, reference_run.path
+    reference = reference_run()
+    scene, path = reference.scene, reference.path
     steps, chunk, every = scene.run.steps, scene.run.chunk, scene.output.trajectory_every
     with h5py.File(path, "r") as handle:
         assert list(handle["h5md"].attrs["version"]) == [1, 1]
@@ -49,18 +50,19 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
     np.testing.assert_array_equal(series.step, np.arange(1, steps + 1))
     np.testing.assert_array_equal(series.time, series.step * scene.integrator.dt)
     final = read_trajectory(path, "position").value[-1]
-    np.testing.assert_array_equal(final, reference_run.summary.state.positions)
+    np.testing.assert_array_equal(final, reference.summary.state.positions)
 
 
-def test_streamed_block_averages_equal_those_of_the_stored_series(reference_run):
+def test_streamed_block_averages_equal_those_of_the_stored_series():
     """The summary's running block sums (jaxdpd.running_averages) against
     statistics.block_average of the whole series read back from the file: same
     blocks, float64 sums in another order, so equal to round-off (1e-12 relative)."""
-    averages = reference_run.summary.averages
+    reference = reference_run()
+    averages = reference.summary.averages
     for name, label in (("temperature", "temperature"), ("pressure", "pressure")):
-        mean, error = block_average(read_observable(reference_run.path, name).value, 20)
+        mean, error = block_average(read_observable(reference.path, name).value, 20)
         np.testing.assert_allclose(averages[label], (mean, error), rtol=1e-12)
-    tensor = read_observable(reference_run.path, "pressure_tensor").value
+    tensor = read_observable(reference.path, "pressure_tensor").value
     mean, error = block_average(tensor[:, 0, 1], 20)
     np.testing.assert_allclose(averages["P_xy"], (mean, error), rtol=1e-12)
 

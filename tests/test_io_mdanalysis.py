@@ -9,15 +9,16 @@ float64 values written (exact equality: one correctly rounded conversion).
 import h5py
 import numpy as np
 import pytest
-from io_runs import polymer_reference_run, reference_run  # noqa: F401  (session fixtures)
+from io_runs import polymer_reference_run, reference_run
 
 MDAnalysis = pytest.importorskip("MDAnalysis")
 
 from jaxdpd.io.mdanalysis import mdanalysis_universe  # noqa: E402
 
 
-def test_mdanalysis_reads_positions_box_time_and_reports_no_physical_units(reference_run):
-    scene, path = reference_run.scene, reference_run.path
+def test_mdanalysis_reads_positions_box_time_and_reports_no_physical_units():
+    reference = reference_run()
+    scene, path = reference.scene, reference.path
     universe = MDAnalysis.Universe.empty(scene.n_particles, trajectory=True)
     universe.load_new(str(path), format="H5MD", convert_units=False)
     trajectory = universe.trajectory
@@ -35,12 +36,13 @@ def test_mdanalysis_reads_positions_box_time_and_reports_no_physical_units(refer
         np.testing.assert_array_equal(timestep.dimensions, box)
         assert timestep.data["step"] == steps[frame]
         assert timestep.time == pytest.approx(steps[frame] * scene.integrator.dt, rel=1e-15)
-    final = np.asarray(reference_run.summary.state.positions).astype(np.float32)
+    final = np.asarray(reference.summary.state.positions).astype(np.float32)
     np.testing.assert_array_equal(trajectory[-1].positions, final)
 
 
-def test_universe_helper_types_atoms_by_species_and_bonds_the_chains(polymer_reference_run):
-    scene, path = polymer_reference_run.scene, polymer_reference_run.path
+def test_universe_helper_types_atoms_by_species_and_bonds_the_chains():
+    reference = polymer_reference_run()
+    scene, path = reference.scene, reference.path
     universe = mdanalysis_universe(path)
     counts = {s.name: s.count for s in scene.particles.species}
     types, numbers = np.unique(universe.atoms.types, return_counts=True)
@@ -51,5 +53,5 @@ def test_universe_helper_types_atoms_by_species_and_bonds_the_chains(polymer_ref
         (2 * k, 2 * k + 1) for k in range(counts["dumbbell"] // 2)
     ]
     assert len(universe.atoms.fragments) == counts["dumbbell"] // 2 + counts["solvent"]
-    final = np.asarray(polymer_reference_run.summary.state.positions)
+    final = np.asarray(reference.summary.state.positions)
     np.testing.assert_array_equal(universe.trajectory[-1].positions, final)

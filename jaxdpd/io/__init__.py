@@ -1,11 +1,11 @@
 """Output files: H5MD trajectories and observables, checkpoints, and reading them back.
 
-    H5MDWriter                          jaxdpd.io.h5md (layout in its docstring)
-    write_tree / read_tree              any pytree to/from an HDF5 group, bit for bit
-    load, read_scene, read_state,       jaxdpd.io.reader
-    read_observable(s), read_trajectory,
-    read_checkpoint
-    RunFileError                        raised for files that cannot be read back
+H5MDWriter                          jaxdpd.io.h5md (layout in its docstring)
+write_tree / read_tree              any pytree to/from an HDF5 group, bit for bit
+load, read_scene, read_state,       jaxdpd.io.reader
+read_observable(s), read_trajectory,
+read_checkpoint
+RunFileError                        raised for files that cannot be read back
 """
 
 from jaxdpd.io.errors import RunFileError

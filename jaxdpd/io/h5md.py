@@ -41,6 +41,7 @@ from jaxdpd.io.layout import CHUNK_BYTES, FRAME_ELEMENTS, PARTICLES, UNITS, redu
 # Readers, importable from here as in earlier versions.
 from jaxdpd.io.reader import read_checkpoint, read_observable, read_scene  # noqa: F401
 
+
 def time_series_groups(handle) -> list:
     """Every time-dependent element (group with `step` and `value`) in the file."""
     found = []

@@ -22,5 +22,3 @@ def reduced_unit(name: str) -> str | None:
     if leaf.endswith("_sq"):
         return "r_c^2"
     return _UNITS_BY_NAME.get(leaf)
-
-

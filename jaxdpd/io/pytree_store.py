@@ -158,7 +158,9 @@ def read_leaf(group, name: str) -> np.ndarray:
     try:
         value = dataset[()]
     except OSError as error:
-        raise RunFileError(f"{group.file.filename}: {dataset.name} is unreadable ({error})") from None
+        raise RunFileError(
+            f"{group.file.filename}: {dataset.name} is unreadable ({error})"
+        ) from None
     value = np.asarray(value)
     expected = dataset.attrs.get(CHECKSUM_ATTRIBUTE)
     if expected is None or zlib.crc32(value.tobytes()) != int(expected):

@@ -131,7 +131,9 @@ def observable_names(handle) -> list[str]:
     names = []
     if "observables" in handle:
         handle["observables"].visititems(
-            lambda name, item: names.append(name) if isinstance(item, h5py.Group) and "value" in item else None
+            lambda name, item: (
+                names.append(name) if isinstance(item, h5py.Group) and "value" in item else None
+            )
         )
     return names
 
