@@ -364,9 +364,16 @@ def prepare_resume(path, steps: int | None = None, **options) -> Run:
             scene = scene.replace(run={"steps": steps})
         simulation = build(scene)
         state = read_checkpoint_state(handle, simulation.init_fn())
-        run = Run(simulation, state, None, info.phase, **options)
-        run.restore(handle, info.step, info.extras)
+    run = Run(simulation, state, None, info.phase, **options)
     run.writer = H5MDWriter.reopen(path, scene, info.step)
+    try:
+        run.restore(run.writer.file, info.step, info.extras)
+    except OSError as error:  # a stored series fails its Fletcher-32 checksum
+        run.writer.close()
+        raise RunFileError(f"{path}: a stored series is damaged ({error})") from None
+    except BaseException:
+        run.writer.close()
+        raise
     return run
 
 
