@@ -198,7 +198,8 @@ class Run:
             group = handle[f"observables/{name}"]
             steps = group["step"]
             first, last = self.scene.run.equilibration + 1, step
-            if steps.shape[0] != done or steps[0] != first or steps[-1] != last:
+            lengths = {group[part].shape[0] for part in ("step", "time", "value")}
+            if lengths != {done} or steps[0] != first or steps[-1] != last:
                 raise RunFileError(
                     f"{handle.filename}: observables/{name} does not hold steps "
                     f"{first}…{last} (the checkpoint's production so far)"

@@ -16,7 +16,8 @@ keys, sequence indices), so `state.pair_list.i` is stored at `<group>/pair_list/
 
 Static fields (e.g. `PairList.cell_capacity`, jax-md's `max_occupancy`) are part of
 the tree structure, not leaves.  Those of JSON type (numbers, strings, booleans, None
-and tuples of them) are stored and restored.  Others (functions, enums) cannot be
+and tuples of them) are stored with their type and restored (the template's must be
+of the same type).  Others (functions, enums) cannot be
 stored; they are taken from the template the tree is restored into (the state built
 from the same scene), after checking that their text (address stripped) matches what
 was written.
@@ -71,10 +72,15 @@ def _is_json_static(value) -> bool:
 
 
 def _static_record(value):
-    """What the file keeps of a static field: the value itself, or its text."""
+    """What the file keeps of a static field: the value and its type, or its text."""
     if _is_json_static(value):
-        return {"value": value}
+        return {"value": value, "type": type(value).__name__}
     return {"text": _ADDRESS.sub("", repr(value))}
+
+
+def _deep_tuple(value):
+    """JSON arrays back into (nested) tuples."""
+    return tuple(_deep_tuple(v) for v in value) if isinstance(value, list) else value
 
 
 def _map_statics(node, visit, path: str = ""):
@@ -134,8 +140,12 @@ def write_tree(group, tree) -> None:
                 del group[name]
             existing = group.create_dataset(name, data=value)
         existing.attrs[CHECKSUM_ATTRIBUTE] = np.uint32(zlib.crc32(value.tobytes()))
-    for stale in sorted(set(stored_leaf_names(group)) - written, reverse=True):
+    for stale in set(stored_leaf_names(group)) - written:
         del group[stale]
+        parent = stale.rpartition("/")[0]
+        while parent and not len(group[parent]):  # drop groups left empty
+            del group[parent]
+            parent = parent.rpartition("/")[0]
     group.attrs[STATICS_ATTRIBUTE] = json.dumps(static_fields(tree), sort_keys=True)
 
 
@@ -193,7 +203,7 @@ def read_tree(group, template):
         path = path.lstrip("/")
         mine = _static_record(value)
         theirs = stored_statics.get(path)
-        if theirs is None or theirs.keys() != mine.keys():
+        if theirs is None or theirs.keys() != mine.keys() or theirs.get("type") != mine.get("type"):
             raise RunFileError(
                 f"{where}: static field {path!r} is {theirs!r} in the file but "
                 f"{mine!r} in this scene's state (written by another version?)"
@@ -205,8 +215,7 @@ def read_tree(group, template):
                     f"this scene's state has {mine['text']!r}"
                 )
             return value
-        stored = theirs["value"]
-        return tuple(stored) if isinstance(value, tuple) else stored
+        return _deep_tuple(theirs["value"]) if isinstance(value, tuple) else theirs["value"]
 
     template = _map_statics(template, restore)
     paths_and_leaves, treedef = jax.tree_util.tree_flatten_with_path(template)
