@@ -55,6 +55,7 @@ PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
 OBSERVABLES = ("temperature", "pressure", "rdf", "conformation")
+MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
 @dataclass(frozen=True)
@@ -419,7 +420,9 @@ def _read_particles(section, lengths, chain_lengths: dict):
     if "density" in section:
         density = read_number(section, "density", "particles", minimum=0, exclusive_minimum=True)
     if "count" in section:
-        count = read_number(section, "count", "particles", minimum=2, integer=True)
+        count = read_number(
+            section, "count", "particles", minimum=2, maximum=MAX_PARTICLES, integer=True
+        )
     if lengths is not None:
         volume = math.prod(lengths)
         if (density is None) == (count is None):
@@ -428,6 +431,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "and particles.count"
             )
         if count is None:
+            if not density * volume <= MAX_PARTICLES:
+                raise ValueError(
+                    f"particles.density = {density}: the box would hold {density * volume:.4g} "
+                    f"particles, more than {MAX_PARTICLES} (int32 particle indices)"
+                )
             count = round(density * volume)
             if count < 2:
                 raise ValueError(
@@ -441,6 +449,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "particles.count (the box is then cubic)"
             )
         side = (count / density) ** (1.0 / 3.0)
+        if not math.isfinite(side):
+            raise ValueError(
+                f"particles.density = {density}: a cubic box of {count} particles at this "
+                "density has no finite side; give a larger density"
+            )
         lengths = (side, side, side)
         density = count / math.prod(lengths)
     species = _read_species(section.get("species", [{"name": "solvent"}]), count, chain_lengths)
