@@ -7,7 +7,8 @@ Layout written:
     /parameters                 attrs: scene (JSON of Scene.to_dict), units
     /particles/all
          box                    dimension = 3, boundary = periodic ×3
-              edges/{step,time,value (T, 3)}     sampled with the positions
+              edges/{step,time,value (T, 3)}     sampled with the positions, or a
+                                                 fixed (3,) dataset without frames
          species                (N,) HDF5 enumeration: species index → name
          position/{step,time,value (T, N, 3)}    every output.trajectory_every
          velocity/{value (T, N, 3)}              production steps; step and time
@@ -104,6 +105,8 @@ class H5MDWriter:
         box = particles.create_group("box")
         box.attrs["dimension"] = 3
         box.attrs["boundary"] = np.array([b"periodic"] * 3)
+        if not scene.output.trajectory_every:  # else sampled with the frames
+            box.create_dataset("edges", data=np.asarray(scene.box.lengths, np.float64))
         names = scene.species_names
         species_type = h5py.enum_dtype({n: k for k, n in enumerate(names)}, basetype="i4")
         particles.create_dataset(
