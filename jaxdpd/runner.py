@@ -247,6 +247,18 @@ class Run:
         self.bar.finish()
         self.checkpoint(last_good, str(error))
 
+    def _advance(self, state, until: int, on_chunk):
+        """Run chunks from state.step to step `until`, feeding `on_chunk`."""
+        return driver.run(
+            self.simulation,
+            state,
+            until - int(state.step),
+            self.scene.run.chunk,
+            on_chunk,
+            self._on_error,
+            self.should_stop,
+        )
+
     def execute(self) -> RunSummary:
         """Run to the end of production, then close the file.
 
@@ -256,25 +268,17 @@ class Run:
                 chunk in flight).
         """
         scene, simulation, state = self.scene, self.simulation, self.state
-        equilibration, chunk = scene.run.equilibration, scene.run.chunk
+        equilibration = scene.run.equilibration
         end = equilibration + scene.run.steps
         self.start_step = int(state.step)
         self.bar = _Progress(end - self.start_step, self.stream, self.progress)
         guard = driver.SignalGuard() if self.handle_signals else contextlib.nullcontext()
-        should_stop = guard if self.handle_signals else None
+        self.should_stop = guard if self.handle_signals else None
         wall = 0.0
         try:
             with guard:
                 if self.phase == EQUILIBRATION:
-                    state = driver.run(
-                        simulation,
-                        state,
-                        equilibration - int(state.step),
-                        chunk,
-                        self._on_equilibration_chunk,
-                        self._on_error,
-                        should_stop,
-                    )
+                    state = self._advance(state, equilibration, self._on_equilibration_chunk)
                     if equilibration:
                         # Fit the neighbour buffers to the equilibrated configuration: a
                         # random start has ideal-gas density fluctuations, a DPD liquid
@@ -282,15 +286,7 @@ class Run:
                         state = simulation.reallocate(state, None)
                     self.phase = PRODUCTION
                 start = time.perf_counter()
-                state = driver.run(
-                    simulation,
-                    state,
-                    end - int(state.step),
-                    chunk,
-                    self._on_production_chunk,
-                    self._on_error,
-                    should_stop,
-                )
+                state = self._advance(state, end, self._on_production_chunk)
                 wall = time.perf_counter() - start
             self.bar.finish()
             rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None

@@ -13,10 +13,12 @@ import h5py
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import make_scene
 from io_runs import assert_same_leaves, reference_run
 from jax_md import dataclasses as jmd_dataclasses
 
 from jaxdpd.io import RunFileError, read_checkpoint, read_state, read_tree, write_tree
+from jaxdpd.simulation import build
 
 
 class Lattice(enum.Enum):
@@ -142,3 +144,23 @@ def test_a_checkpointed_simstate_restores_through_the_scenes_build():
     raw = read_checkpoint(reference.path)
     np.testing.assert_array_equal(raw["pair_list/i"], reference.summary.state.pair_list.i)
     assert raw["step"] == reference.scene.run.steps and raw["phase"] == "production"
+
+
+def test_a_jax_md_neighbour_list_state_restores_its_statics(store):
+    """jax-md's NeighborList has static capacities (restored from the file), an enum
+    and functions (taken from the template, a state of another allocation)."""
+    # The scene of test_dpd_invariants' format test: built once per session.
+    scene = make_scene(
+        neighbors={"method": "jax_md", "format": "dense", "skin": 0.3}, particles={"count": 700}
+    )
+    simulation = build(scene)
+    state = simulation.init_fn()
+    lists = state.pair_list.backend
+    stored = state.set(pair_list=state.pair_list.set(backend=lists.set(max_occupancy=99)))
+    write_tree(store, stored)
+    template = simulation.init_fn()
+    restored = read_tree(store, template)
+    assert_same_leaves(restored, stored)
+    assert restored.pair_list.backend.max_occupancy == 99
+    assert restored.pair_list.backend.update_fn is template.pair_list.backend.update_fn
+    assert restored.pair_list.backend.format == lists.format

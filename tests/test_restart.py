@@ -231,3 +231,24 @@ def test_a_finished_run_extended_with_more_steps_equals_a_longer_run(tmp_path):
     ours, theirs = read_observables(path), read_observables(tmp_path / "direct.h5")
     for name in theirs:
         np.testing.assert_array_equal(ours[name].value, theirs[name].value)
+
+
+@pytest.mark.slow
+def test_a_jax_md_neighbour_list_run_interrupted_and_resumed_matches(tmp_path):
+    """jax-md's neighbour list state holds functions and an enum as static fields:
+    the checkpoint takes them from the rebuilt scene and the run still continues
+    bit-identically (float32, ordered-sparse list)."""
+    scene = polymer_scene().replace(neighbors={"method": "jax_md", "format": "ordered_sparse"})
+    direct = simulate(scene, tmp_path / "direct.h5", progress=False)
+    path = tmp_path / "run.h5"
+    stop_after = scene.run.equilibration + 30
+
+    def interrupt(result):
+        if int(result.state.step) == stop_after:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    with pytest.raises(RunInterrupted):
+        simulate(scene, path, progress=False, on_chunk=interrupt)
+    resumed = resume(path, progress=False)
+    assert_same_leaves(resumed.state, direct.state)
+    assert resumed.averages == direct.averages

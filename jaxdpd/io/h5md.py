@@ -135,7 +135,7 @@ class H5MDWriter:
             raise RunFileError(f"{path}: cannot be opened for appending ({error})") from None
         writer = cls(handle, scene)
         for group in time_series_groups(handle):
-            keep = int(np.searchsorted(group["step"][()], after_step, side="right"))
+            keep = _samples_up_to(group["step"], after_step)
             for name in ("step", "time", "value"):
                 if name in group and group[name].shape[0] > keep:
                     group[name].resize(keep, axis=0)
@@ -240,6 +240,19 @@ class H5MDWriter:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _samples_up_to(steps, last_step: int) -> int:
+    """Number of entries ≤ last_step in an increasing step dataset (binary search on
+    the file: a long series is not loaded)."""
+    low, high = 0, steps.shape[0]
+    while low < high:
+        middle = (low + high) // 2
+        if steps[middle] <= last_step:
+            low = middle + 1
+        else:
+            high = middle
+    return low
 
 
 _STATE_FIELD = {"position": "positions", "velocity": "velocities", "image": "image"}

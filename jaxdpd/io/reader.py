@@ -129,23 +129,29 @@ def _series(group) -> Series:
 def observable_names(handle) -> list[str]:
     """Names of the observables stored in an open file ("temperature", "A/end_to_end_sq")."""
     names = []
+
+    def visit(name, item):
+        if isinstance(item, h5py.Group) and "value" in item:
+            names.append(name)
+
     if "observables" in handle:
-        handle["observables"].visititems(
-            lambda name, item: (
-                names.append(name) if isinstance(item, h5py.Group) and "value" in item else None
-            )
-        )
+        handle["observables"].visititems(visit)
     return names
+
+
+def _read_element(path, element: str, hint) -> Series:
+    """The time-dependent element at `element`, or RunFileError with `hint(handle)`."""
+    with open_run_file(path) as handle:
+        if element not in handle:
+            raise RunFileError(f"{path}: no {element} ({hint(handle)})")
+        return _series(handle[element])
 
 
 def read_observable(path, name: str) -> Series:
     """One stored observable as NumPy arrays (step, time, value)."""
-    with open_run_file(path) as handle:
-        if f"observables/{name}" not in handle:
-            raise RunFileError(
-                f"{path}: no observable {name!r}; stored: {observable_names(handle)}"
-            )
-        return _series(handle[f"observables/{name}"])
+    return _read_element(
+        path, f"observables/{name}", lambda handle: f"stored: {observable_names(handle)}"
+    )
 
 
 def read_observables(path) -> dict:
@@ -156,12 +162,9 @@ def read_observables(path) -> dict:
 
 def read_trajectory(path, element: str = "position") -> Series:
     """Stored frames of "position", "velocity" or "image": value (T, N, 3)."""
-    with open_run_file(path) as handle:
-        if f"{PARTICLES}/{element}" not in handle:
-            raise RunFileError(
-                f"{path}: no {element} frames (set output.trajectory_every to write them)"
-            )
-        return _series(handle[f"{PARTICLES}/{element}"])
+    return _read_element(
+        path, f"{PARTICLES}/{element}", lambda _: "set output.trajectory_every to write frames"
+    )
 
 
 def load(path) -> RunRecord:
