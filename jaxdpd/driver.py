@@ -55,12 +55,13 @@ class RunInterrupted(Exception):
 class SignalGuard:
     """While active, SIGINT and SIGTERM ask the run to stop at the next chunk boundary.
 
-    The first signal only records the request (`requested` becomes its name), prints
-    a notice on stderr and puts the previous handlers back, so a second signal acts
-    as it would without the guard (Ctrl-C twice aborts at once, without a
-    checkpoint).  Leaving the guard restores the previous handlers.  Signals that
-    were ignored (SIG_IGN) stay ignored, and outside the main thread (where Python
-    cannot install handlers) the guard does nothing.
+    The first signal only records the request (`requested` becomes its name) and
+    prints a notice on stderr; it also sets both signals to their default action, so
+    a second one terminates the process at once, even in the middle of a chunk
+    (without a checkpoint: the file keeps the last one written).  Leaving the guard
+    restores the previous handlers.  Signals that were ignored (SIG_IGN) stay
+    ignored, and outside the main thread (where Python cannot install handlers) the
+    guard does nothing.
 
     Example:
         with SignalGuard() as guard:
@@ -79,18 +80,14 @@ class SignalGuard:
 
     def _handle(self, signum, _frame) -> None:
         self.requested = signal.Signals(signum).name
-        self._restore()
+        for guarded in self._previous:
+            signal.signal(guarded, signal.SIG_DFL)
         # os.write: a signal handler must not re-enter a buffered stream.
         os.write(
             2,
             f"\njaxdpd: {self.requested} received: finishing the chunk in flight, then "
             "writing a checkpoint (send it again to stop at once, without one)\n".encode(),
         )
-
-    def _restore(self) -> None:
-        for signum, handler in self._previous.items():
-            signal.signal(signum, handler)
-        self._previous = {}
 
     def __enter__(self) -> "SignalGuard":
         if threading.current_thread() is threading.main_thread():
@@ -102,7 +99,9 @@ class SignalGuard:
         return self
 
     def __exit__(self, *exc) -> None:
-        self._restore()
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+        self._previous = {}
 
 
 @partial(jax.jit, static_argnums=(0, 2))

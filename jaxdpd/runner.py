@@ -275,8 +275,9 @@ class Run:
         guard = driver.SignalGuard() if self.handle_signals else contextlib.nullcontext()
         self.should_stop = guard if self.handle_signals else None
         wall = 0.0
-        try:
-            with guard:
+        # The guard spans the final writes too: a second signal then ends the process.
+        with guard:
+            try:
                 if self.phase == EQUILIBRATION:
                     state = self._advance(state, equilibration, self._on_equilibration_chunk)
                     if equilibration:
@@ -288,19 +289,19 @@ class Run:
                 start = time.perf_counter()
                 state = self._advance(state, end, self._on_production_chunk)
                 wall = time.perf_counter() - start
-            self.bar.finish()
-            rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None
-            if self.writer is not None:
-                self.checkpoint(state, "end of run")
-                if rdf is not None:
-                    self.writer.write_rdf(*rdf, self.rdf.samples)
-        except driver.RunInterrupted as interrupt:
-            self.bar.finish()
-            self.checkpoint(interrupt.state, f"interrupted by {interrupt.signal_name}")
-            raise
-        finally:
-            if self.writer is not None:
-                self.writer.close()
+                self.bar.finish()
+                rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None
+                if self.writer is not None:
+                    self.checkpoint(state, "end of run")
+                    if rdf is not None:
+                        self.writer.write_rdf(*rdf, self.rdf.samples)
+            except driver.RunInterrupted as interrupt:
+                self.bar.finish()
+                self.checkpoint(interrupt.state, f"interrupted by {interrupt.signal_name}")
+                raise
+            finally:
+                if self.writer is not None:
+                    self.writer.close()
         return self._summary(state, rdf, wall)
 
     def _summary(self, state, rdf, wall: float) -> RunSummary:

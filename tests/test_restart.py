@@ -30,7 +30,7 @@ from io_runs import (
 )
 
 from jaxdpd.cli import main
-from jaxdpd.driver import RunInterrupted
+from jaxdpd.driver import RunInterrupted, SignalGuard
 from jaxdpd.io import read_checkpoint, read_observables, read_state, read_trajectory
 from jaxdpd.io.reader import open_run_file
 from jaxdpd.runner import resume, simulate
@@ -126,6 +126,19 @@ def test_sigint_to_a_cli_run_then_restart_ends_bit_identical_in_float64(tmp_path
     for line in reference.summary.table().splitlines():
         if not line.startswith("particle-steps/s"):
             assert line in printed  # averages over the whole production, replayed
+
+
+def test_the_signal_guard_records_the_first_signal_and_restores_the_handlers():
+    previous = signal.getsignal(signal.SIGTERM)
+    with SignalGuard() as guard:
+        assert guard() is None
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)  # the Python handler runs between bytecodes of this thread
+        assert guard() == "SIGTERM"
+        # A second signal would now take its default action: terminate at once.
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_DFL
+    assert signal.getsignal(signal.SIGTERM) is previous
 
 
 class _SignalAfter:
