@@ -117,7 +117,7 @@ class H5MDWriter:
         if blocks:
             bonds = handle.create_dataset("connectivity/bonds", data=bond_pairs(blocks))
             bonds.attrs["particles_group"] = particles.ref
-        handle.create_group("observables")
+        handle.create_group("observables", track_order=True)  # series in the run's order
         handle.flush()
         return writer
 

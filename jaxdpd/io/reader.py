@@ -127,16 +127,18 @@ def _series(group) -> Series:
 
 
 def observable_names(handle) -> list[str]:
-    """Names of the observables stored in an open file ("temperature", "A/end_to_end_sq")."""
-    names = []
+    """Names of the observables stored in an open file ("temperature", "A/end_to_end_sq"),
+    in the order they were created."""
 
-    def visit(name, item):
-        if isinstance(item, h5py.Group) and "value" in item:
-            names.append(name)
+    def names_in(group, prefix=""):
+        for name, item in group.items():
+            if isinstance(item, h5py.Group):
+                if "value" in item:
+                    yield prefix + name
+                else:
+                    yield from names_in(item, f"{prefix}{name}/")
 
-    if "observables" in handle:
-        handle["observables"].visititems(visit)
-    return names
+    return list(names_in(handle["observables"])) if "observables" in handle else []
 
 
 def _read_element(path, element: str, hint) -> Series:
