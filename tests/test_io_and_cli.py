@@ -2,10 +2,10 @@
 
 import h5py
 import numpy as np
-from io_runs import reference_run
+from io_runs import assert_same_leaves, reference_run
 
 from jaxdpd.cli import demo_scene, main
-from jaxdpd.io import read_observable, read_scene, read_trajectory
+from jaxdpd.io import load, read_observable, read_scene, read_trajectory
 from jaxdpd.statistics import block_average
 
 
@@ -51,6 +51,16 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
     np.testing.assert_array_equal(series.time, series.step * scene.integrator.dt)
     final = read_trajectory(path, "position").value[-1]
     np.testing.assert_array_equal(final, reference.summary.state.positions)
+
+
+def test_load_gives_back_scene_state_and_every_observable():
+    reference = reference_run()
+    record = load(reference.path)
+    assert record.scene == reference.scene
+    assert_same_leaves(record.state, reference.summary.state)
+    assert (record.checkpoint.step, record.checkpoint.phase) == (2400, "production")
+    assert list(record.observables) == ["temperature", "pressure_tensor", "pressure"]
+    assert record.observables["pressure_tensor"].value.shape == (2400, 3, 3)
 
 
 def test_streamed_block_averages_equal_those_of_the_stored_series():
