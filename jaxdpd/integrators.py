@@ -8,18 +8,20 @@ error bits of its own (e.g. an overstretched spring).
 
 import jax.numpy as jnp
 
-from jaxdpd import errors
+from jaxdpd import errors, flows
 
 
-def _flag(state, positions, velocities, pair_list, kT, bits):
+def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
     """OR the error bits of this step into the state's flags.
 
     Args:
         bits: error bits the force kernel reported.
-        kT: the set temperature (unit masses); a mean v² above
-            RUNAWAY_FACTOR · 3 kT flags a runaway.
+        kT: the set temperature; a mean m v² above RUNAWAY_FACTOR · 3 kT flags a
+            runaway.
+        masses: (N,) particle masses, or None for unit masses.
     """
-    twice_kinetic = jnp.sum(velocities * velocities)
+    squares = velocities * velocities
+    twice_kinetic = jnp.sum(squares if masses is None else masses[:, None] * squares)
     finite = jnp.isfinite(jnp.sum(positions) + twice_kinetic)
     runaway = twice_kinetic > errors.RUNAWAY_FACTOR * 3 * kT * velocities.shape[0]
     bits = (
@@ -31,48 +33,77 @@ def _flag(state, positions, velocities, pair_list, kT, bits):
     return state.flags | bits.astype(jnp.int32)
 
 
-def modified_velocity_verlet(box, dt: float, lambda_: float, interactions, kT: float, dtype):
-    """Groot–Warren modified velocity Verlet (thesis eq. 2.10), unit masses:
+def modified_velocity_verlet(
+    box, dt: float, lambda_: float, interactions, kT: float, dtype, masses=None
+):
+    """Groot–Warren modified velocity Verlet (thesis eq. 2.10), a = f/m:
 
-        r(t+Δt) = r + Δt v + ½ Δt² f(t)
-        ṽ       = v + λ Δt f(t)
+        r(t+Δt) = r + Δt v + ½ Δt² a(t)
+        ṽ       = v + λ Δt a(t)
         f(t+Δt) = f(r(t+Δt), ṽ)
-        v(t+Δt) = v + ½ Δt [f(t) + f(t+Δt)]
+        v(t+Δt) = v + ½ Δt [a(t) + a(t+Δt)]
 
     λ = ½ is the usual velocity Verlet; Groot and Warren found λ ≈ 0.65 best for
     DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.  `kT` is the
-    temperature scale of the runaway check (see jaxdpd.errors).
+    temperature scale of the runaway check (see jaxdpd.errors).  `masses` is the
+    (N,) array of particle masses, or None for unit masses (no division traced).
+
+    In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
+    terms of jaxdpd.flows are added: streaming in the position update, −L c in
+    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update;
+    the box state advances with the step.  A box at rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
 
+    def acceleration(forces):
+        return forces if masses is None else forces / masses[:, None]
+
     def step(state):
-        forces = state.forces
-        moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * forces
-        positions, image = box.wrap(moved, state.image)
-        predicted = state.velocities + (lam * dt_) * forces
-        advanced = state.set(positions=positions, image=image, step=state.step + 1)
+        bound = box.bind(state.box_state)
+        accelerations = acceleration(state.forces)
+        displacement_acceleration = accelerations
+        curvature = flows.streaming_curvature(bound, state.positions)
+        if curvature is not None:
+            displacement_acceleration = accelerations + curvature
+        drift = flows.drift_velocity(bound, state.positions, state.velocities)
+        moved = state.positions + dt_ * drift + (0.5 * dt_ * dt_) * displacement_acceleration
+        box_state = box.advance(state.box_state, state.time, dt_)
+        new_bound = box.bind(box_state)
+        positions, image = new_bound.wrap(moved, state.image)
+        rate_of_change = accelerations
+        drag = flows.sllod_drag(bound, state.velocities)
+        if drag is not None:
+            rate_of_change = accelerations + drag
+        predicted = state.velocities + (lam * dt_) * rate_of_change
+        advanced = state.set(
+            positions=positions, image=image, box_state=box_state, step=state.step + 1
+        )
         new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
-        velocities = state.velocities + (0.5 * dt_) * (forces + new_forces)
+        right_hand_side = state.velocities + (0.5 * dt_) * (
+            rate_of_change + acceleration(new_forces)
+        )
+        velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
             pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits),
+            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
         )
 
     return step
 
 
 def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
-    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
+    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses,
+    a box at rest).
 
         v_i ← v_i + Σ_j Ω_ij e_ij,     r_i ← r_i + v_i δt.
 
-    The recorded virial is that of the collision impulses divided by δt (the mean
-    force they exert over the step).
+    The recorded virial parts are those of the collision impulses divided by δt (the
+    mean force they exert over the step).
     """
     dt_ = jnp.asarray(dt, dtype)
 
@@ -85,7 +116,7 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
             velocities=velocities,
             image=image,
             pair_list=pair_list,
-            virial=virial / dt_,
+            virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, pair_list, kT, bits),

@@ -4,7 +4,8 @@ Chains start at uniformly random points and grow by random unit steps of the bon
 law's placement length (the energy minimum, or a free spring's root-mean-square
 length), so no spring starts overstretched; a FENE spring is placed at its exact
 equilibrium ⟨Q²⟩^{1/2} (thesis eq. 4.8), well inside Q0.  Velocities are
-Maxwell–Boltzmann at the solvent's k_BT with zero total momentum.
+Maxwell–Boltzmann at the solvent's k_BT (variance k_BT/m per component) with zero
+total momentum.
 
 The configuration is drawn on the host with NumPy's PCG64 generator seeded by the
 scene's seed (no device compilation for a one-off), then cast to the scene's dtype.
@@ -40,10 +41,11 @@ def initial_configuration(scene, box, dtype, blocks):
     positions = np.where(at_edge, 0, positions).astype(dtype)
     image = image + at_edge
     kT = scene.solvent.kT if scene.solvent.method == "dpd" else 1.0
-    velocities = rng.normal(size=(n, 3)) * np.sqrt(kT)
-    velocities -= velocities.mean(axis=0)
     counts = [s.count for s in scene.particles.species]
     species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
+    masses = np.array([s.mass for s in scene.particles.species])[species]
+    velocities = rng.normal(size=(n, 3)) * np.sqrt(kT / masses)[:, None]
+    velocities -= (masses @ velocities) / masses.sum()
     return (
         jnp.asarray(positions),
         jnp.asarray(image, jnp.int32),

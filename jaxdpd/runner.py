@@ -35,7 +35,8 @@ from jaxdpd.io.checkpoint import (
 )
 from jaxdpd.io.errors import RunFileError
 from jaxdpd.io.h5md import H5MDWriter
-from jaxdpd.io.reader import observable_names, open_run_file, scene_of
+from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
+from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.running_averages import RunningBlockAverages
@@ -194,7 +195,7 @@ class Run:
         if self.phase != PRODUCTION or done <= 0:
             return
         chunk = self.scene.run.chunk
-        for name in observable_names(handle):
+        for name in time_series_names(handle):
             group = handle[f"observables/{name}"]
             steps = group["step"]
             first, last = self.scene.run.equilibration + 1, step
@@ -285,16 +286,21 @@ class Run:
                         # random start has ideal-gas density fluctuations, a DPD liquid
                         # far smaller ones.
                         state = simulation.reallocate(state, None)
+                    # On-device correlators measure the production run only.
+                    state = simulation.init_observers(state)
                     self.phase = PRODUCTION
                 start = time.perf_counter()
                 state = self._advance(state, end, self._on_production_chunk)
                 wall = time.perf_counter() - start
                 self.bar.finish()
                 rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None
+                correlations = self._correlations(state)
                 if self.writer is not None:
                     self.checkpoint(state, "end of run")
                     if rdf is not None:
                         self.writer.write_rdf(*rdf, self.rdf.samples)
+                    for name, (lag_times, values) in correlations.items():
+                        self.writer.write_correlation(name, lag_times, values)
             except driver.RunInterrupted as interrupt:
                 self.bar.finish()
                 self.checkpoint(interrupt.state, f"interrupted by {interrupt.signal_name}")
@@ -302,15 +308,22 @@ class Run:
             finally:
                 if self.writer is not None:
                     self.writer.close()
-        return self._summary(state, rdf, wall)
+        return self._summary(state, rdf, correlations, wall)
 
-    def _summary(self, state, rdf, wall: float) -> RunSummary:
+    def _correlations(self, state) -> dict:
+        """name -> (lag times, values) of the on-device chain correlators."""
+        if state.observers is None:
+            return {}
+        interval = self.scene.output.correlator_every * self.scene.integrator.dt
+        return chain_correlations(state.observers, interval)
+
+    def _summary(self, state, rdf, correlations, wall: float) -> RunSummary:
         scene = self.scene
         summary = RunSummary(rdf, scene.run.steps, wall, state, scene.n_particles)
         if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
             (t0, s0), (t1, s1) = self.chunk_ends
             summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-        summary.averages = _summary_averages(self.averages)
+        summary.averages = _summary_averages(self.averages) | center_of_mass_diffusion(correlations)
         summary.references = ideal_references(self.simulation.blocks, scene.solvent.kT)
         summary.series = {name: np.concatenate(parts) for name, parts in self.series.items()}
         return summary

@@ -9,8 +9,13 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     seed        integer in [0, 2³²)                     noise and initial state
     precision   "float32" | "float64"
     cutoff      r_c > 0 of all pair interactions        default 1
-    [box]       kind = "periodic"; lengths = [Lx, Ly, Lz] (optional, see particles)
-    [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction}]
+    [box]       kind = "periodic" | "lees_edwards" (follows from [flow] when not
+                given); lengths = [Lx, Ly, Lz] (optional, see particles)
+    [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
+                oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
+                needs a Lees–Edwards box and solvent.method "dpd"
+    [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
+                mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
                 (cubic box of side (N/ρ)^(1/3))
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
@@ -21,18 +26,24 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
-                law = "hookean" (spring_constant) | "fraenkel" (spring_constant,
-                rest_length) | "fene" (spring_constant, max_extension) |
+                law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
+                (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
                 wca_sigma = 1); dpd solvents only
+    [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
+                f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation"}; rdf_bins, rdf_max;
-                trajectory_every (0 = never); checkpoint_every (steps, 0 = only at
-                the end, on errors and on SIGINT/SIGTERM); both multiples of run.chunk
+                "pressure", "rdf", "conformation", "dynamics", "profile"}; rdf_bins,
+                rdf_max; profile_bins ≥ 1 (slabs along y);
+                trajectory_every (0 = never); correlator_every ≥ 1 (steps between
+                samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                checkpoint_every (steps, 0 = only at the end, on errors and on
+                SIGINT/SIGTERM); trajectory_every and checkpoint_every are multiples
+                of run.chunk
 """
 
 import json
@@ -40,6 +51,7 @@ import math
 import tomllib
 from dataclasses import asdict, dataclass, field
 
+from jaxdpd.boxes import make_box
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -54,16 +66,22 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-OBSERVABLES = ("temperature", "pressure", "rdf", "conformation")
+BOX_KINDS = ("periodic", "lees_edwards")
+FLOW_KINDS = ("shear",)
+BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
+FLOW_SOLVENTS = ("dpd",)
+OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
+POLYMER_OBSERVABLES = ("conformation", "dynamics")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
 @dataclass(frozen=True)
 class Species:
-    """A particle species and how many particles it has."""
+    """A particle species, how many particles it has and their mass (units of m)."""
 
     name: str
     count: int
+    mass: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -77,10 +95,25 @@ class Particles:
 
 @dataclass(frozen=True)
 class Box:
-    """Periodic box with resolved edge lengths."""
+    """The box: its kind and resolved edge lengths."""
 
     kind: str
     lengths: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Flow:
+    """An imposed homogeneous flow (SLLOD with flow-adapted boundaries).
+
+    Attributes:
+        kind: "shear".
+        shear_rate: γ̇ (its amplitude for an oscillatory shear), 1/time.
+        oscillation_frequency: ω of γ̇(t) = γ̇ cos(ω t), or None for steady shear.
+    """
+
+    kind: str
+    shear_rate: float
+    oscillation_frequency: float | None = None
 
 
 @dataclass(frozen=True)
@@ -131,6 +164,21 @@ class Polymer:
 
 
 @dataclass(frozen=True)
+class BodyForce:
+    """An external force on every particle (jaxdpd.forcing).
+
+    Attributes:
+        kind: "cosine": f_x = amplitude cos(2π waves y / L_y).
+        amplitude: F, force per particle.
+        waves: n, periods across the box along y.
+    """
+
+    kind: str
+    amplitude: float
+    waves: int = 1
+
+
+@dataclass(frozen=True)
 class Integrator:
     """Time step and the λ of the modified velocity-Verlet scheme (thesis eq. 2.10)."""
 
@@ -167,6 +215,9 @@ class Output:
     rdf_max: float = 3.0
     trajectory_every: int = 0
     checkpoint_every: int = 0
+    correlator_every: int = 10
+    correlator_levels: int = 12
+    profile_bins: int = 20
 
 
 @dataclass(frozen=True)
@@ -182,6 +233,8 @@ class Scene:
     pair: Pair | None
     integrator: Integrator
     polymers: tuple[Polymer, ...] = ()
+    flow: Flow | None = None
+    body_force: BodyForce | None = None
     neighbors: Neighbors = field(default_factory=Neighbors)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
@@ -217,6 +270,8 @@ class Scene:
                 "pair",
                 "integrator",
                 "polymers",
+                "flow",
+                "body_force",
                 "neighbors",
                 "run",
                 "output",
@@ -230,9 +285,15 @@ class Scene:
             raise ValueError(f"solvent: required section is missing; method: {SOLVENT_METHODS}")
         solvent = _read_solvent(data["solvent"])
         neighbors = _read_neighbors(data.get("neighbors", {}))
+        flow = _read_flow(data.get("flow"), solvent, neighbors)
         box_section = data.get("box", {})
         check_keys(box_section, ("kind", "lengths"), "box")
-        box_kind = read_choice(box_section, "kind", "box", ("periodic",), "periodic")
+        box_kind = read_choice(box_section, "kind", "box", BOX_KINDS, BOX_OF_FLOW[_kind(flow)])
+        if box_kind != BOX_OF_FLOW[_kind(flow)]:
+            raise ValueError(
+                f"box.kind = {box_kind!r} does not fit flow.kind = {_kind(flow)!r}: "
+                f"that flow needs box.kind = {BOX_OF_FLOW[_kind(flow)]!r} (or leave box.kind out)"
+            )
         lengths = _read_lengths(box_section)
         polymer_entries = _polymer_entries(data.get("polymers", []))
         chain_lengths = {
@@ -242,22 +303,38 @@ class Scene:
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
         list_cutoff = cutoff + neighbors.skin
-        for axis, length in zip("xyz", lengths, strict=True):
-            if not length > 2 * list_cutoff:
+        heights = make_box(box_kind, lengths, flow).cell_heights
+        for axis, length, height in zip("xyz", lengths, heights, strict=True):
+            if not height > 2 * list_cutoff:
+                tilted = f" (its thickness {height:.4g} at the largest shear tilt)"
                 raise ValueError(
-                    f"box.lengths: L_{axis} = {length:.4g} must exceed 2 (cutoff + "
-                    f"neighbors.skin) = {2 * list_cutoff:.4g}; enlarge the box or add particles"
+                    f"box.lengths: L_{axis} = {length:.4g}{tilted if height != length else ''} "
+                    f"must exceed 2 (cutoff + neighbors.skin) = {2 * list_cutoff:.4g}; "
+                    "enlarge the box or add particles"
                 )
+        if solvent.method == "hoogerbrugge_koelman" and any(
+            s.mass != 1.0 for s in particles.species
+        ):
+            raise ValueError(
+                "particles.species[].mass: the Hoogerbrugge–Koelman update is written for "
+                "unit masses; remove the masses or use solvent.method = 'dpd'"
+            )
         pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), lengths, run.chunk)
-        if "conformation" in output.observables and not polymers:
+        if flow is not None and "dynamics" in output.observables:
             raise ValueError(
-                "output.observables: 'conformation' measures polymers; add a [[polymers]] "
-                "section or remove it"
+                "output.observables: 'dynamics' (mean-square displacements) needs a box at "
+                "rest; under flow, measure the chains with 'conformation'"
             )
+        for name in POLYMER_OBSERVABLES:
+            if name in output.observables and not polymers:
+                raise ValueError(
+                    f"output.observables: {name!r} measures polymers; add a [[polymers]] "
+                    "section or remove it"
+                )
         return cls(
             seed=seed,
             precision=precision,
@@ -268,6 +345,8 @@ class Scene:
             pair=pair,
             integrator=integrator,
             polymers=polymers,
+            flow=flow,
+            body_force=_read_body_force(data.get("body_force"), solvent),
             neighbors=neighbors,
             run=run,
             output=output,
@@ -296,7 +375,9 @@ class Scene:
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
             "count": self.particles.count,
-            "species": [{"name": s.name, "count": s.count} for s in self.particles.species],
+            "species": [
+                {"name": s.name, "count": s.count, "mass": s.mass} for s in self.particles.species
+            ],
         }
         data["solvent"] = _solvent_dict(self.solvent)
         if self.pair is None:
@@ -309,6 +390,12 @@ class Scene:
         ]
         if not self.polymers:
             del data["polymers"]
+        if self.body_force is None:
+            del data["body_force"]
+        if self.flow is None:
+            del data["flow"]
+        elif self.flow.oscillation_frequency is None:
+            del data["flow"]["oscillation_frequency"]
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
         data["output"]["observables"] = list(self.output.observables)
@@ -382,6 +469,48 @@ def _read_solvent(section) -> Solvent:
         pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
         omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
         delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
+    )
+
+
+def _kind(flow: Flow | None) -> str | None:
+    return None if flow is None else flow.kind
+
+
+def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
+    if section is None:
+        return None
+    check_keys(section, ("kind", "shear_rate", "oscillation_frequency"), "flow")
+    kind = read_choice(section, "kind", "flow", FLOW_KINDS)
+    if solvent.method not in FLOW_SOLVENTS:
+        raise ValueError(
+            f"flow: solvent.method = {solvent.method!r} has no SLLOD integrator; use one "
+            f"of {list(FLOW_SOLVENTS)} or remove the [flow] section"
+        )
+    if neighbors.method != "cell_list":
+        raise ValueError(
+            "neighbors.method = 'jax_md': jax-md's lists know no Lees–Edwards boundary; "
+            "use neighbors.method = 'cell_list' with a [flow]"
+        )
+    shear_rate = read_number(section, "shear_rate", "flow")
+    frequency = read_number(
+        section, "oscillation_frequency", "flow", None, minimum=0, exclusive_minimum=True
+    )
+    return Flow(kind, shear_rate, frequency)
+
+
+def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
+    if section is None:
+        return None
+    check_keys(section, ("kind", "amplitude", "waves"), "body_force")
+    if solvent.method != "dpd":
+        raise ValueError(
+            f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
+            f"not {solvent.method!r}"
+        )
+    return BodyForce(
+        kind=read_choice(section, "kind", "body_force", ("cosine",)),
+        amplitude=read_number(section, "amplitude", "body_force"),
+        waves=read_number(section, "waves", "body_force", 1, minimum=1, integer=True),
     )
 
 
@@ -465,10 +594,10 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
     a count that is a multiple of M (fractions are rounded to the nearest one)."""
     if not isinstance(entries, list) or not entries:
         raise TypeError("particles.species: expected a non-empty list of {name, count|fraction}")
-    names, counts, fractions = [], [], []
+    names, counts, fractions, masses = [], [], [], []
     for k, entry in enumerate(entries):
         path = f"particles.species[{k}]"
-        check_keys(entry, ("name", "count", "fraction"), path)
+        check_keys(entry, ("name", "count", "fraction", "mass"), path)
         name = read_string(entry, "name", path)
         if name in names:
             raise ValueError(f"{path}.name = {name!r}: species names must be unique")
@@ -477,14 +606,15 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
         names.append(name)
         counts.append(read_number(entry, "count", path, None, minimum=0, integer=True))
         fractions.append(read_number(entry, "fraction", path, None, minimum=0, maximum=1))
+        masses.append(read_number(entry, "mass", path, 1.0, minimum=0, exclusive_minimum=True))
     if len(entries) == 1 and counts[0] is None and fractions[0] is None:
-        return (Species(names[0], total),)
+        return (Species(names[0], total, masses[0]),)
     if all(c is not None for c in counts):
         if sum(counts) != total:
             raise ValueError(
                 f"particles.species: counts sum to {sum(counts)}, particles.count is {total}"
             )
-        return tuple(Species(n, c) for n, c in zip(names, counts, strict=True))
+        return tuple(Species(*entry) for entry in zip(names, counts, masses, strict=True))
     if all(f is not None for f in fractions):
         if not math.isclose(sum(fractions), 1.0, abs_tol=1e-9):
             raise ValueError(f"particles.species: fractions sum to {sum(fractions)}, must be 1")
@@ -493,7 +623,7 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
             for n, f in zip(names[:-1], fractions[:-1], strict=True)
         ]
         resolved.append(total - sum(resolved))
-        return tuple(Species(n, c) for n, c in zip(names, resolved, strict=True))
+        return tuple(Species(*entry) for entry in zip(names, resolved, masses, strict=True))
     raise ValueError("particles.species: give every species a count, or every one a fraction")
 
 
@@ -554,6 +684,7 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
 BOND_PARAMETERS = {
     "hookean": {"spring_constant": REQUIRED},
     "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
+    "harmonic": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
     "fene": {"spring_constant": REQUIRED, "max_extension": REQUIRED},
     "fene_log_wca": {
         "spring_constant": REQUIRED,
@@ -654,7 +785,17 @@ def _read_run(section) -> Run:
 def _read_output(section, lengths, chunk: int) -> Output:
     check_keys(
         section,
-        ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every", "checkpoint_every"),
+        (
+            "path",
+            "observables",
+            "rdf_bins",
+            "rdf_max",
+            "trajectory_every",
+            "checkpoint_every",
+            "correlator_every",
+            "correlator_levels",
+            "profile_bins",
+        ),
         "output",
     )
     observables = read_list(section, "observables", "output", ["temperature", "pressure"])
@@ -681,4 +822,11 @@ def _read_output(section, lengths, chunk: int) -> Output:
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
         **every,
+        correlator_every=read_number(
+            section, "correlator_every", "output", 10, minimum=1, integer=True
+        ),
+        correlator_levels=read_number(
+            section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
+        ),
+        profile_bins=read_number(section, "profile_bins", "output", 20, minimum=1, integer=True),
     )

@@ -43,7 +43,7 @@ chunk = 20
 [output]
 observables = ["temperature", "pressure", "rdf"]
 rdf_max = 2.0
-trajectory_every = 200
+trajectory_every = 20
 checkpoint_every = 100
 """
 # Memory growth is measured between these chunks (tracing starts at TRACE_FROM, so

@@ -46,3 +46,37 @@ def test_temperature_and_maxwellian_velocities_at_dt_001():
     assert stats.kstest(scaled, "norm").pvalue > 1e-3
     fourth = scaled**4
     assert abs(fourth.mean() - 3.0) < 5 * fourth.std() / np.sqrt(len(fourth))
+
+
+def test_unequal_masses_share_the_temperature():
+    """Equipartition: in a DPD fluid of particles of mass 1 and 4 both species have
+    ⟨m v²⟩/3 = k_BT (canonical ensemble; the thermostat acts on relative velocities
+    and knows nothing of the masses).  Tolerance per species: 4 standard errors of 20
+    block averages plus the integrator bias bound above."""
+    scene = make_scene(
+        precision="float32",
+        particles={
+            "count": 500,
+            "species": [
+                {"name": "light", "count": 250},
+                {"name": "heavy", "count": 250, "mass": 4},
+            ],
+        },
+        integrator={"dt": 0.01, "lambda": 0.65},
+        output={"observables": ["temperature"]},
+    )
+    simulation = build(scene)
+    masses = np.asarray(simulation.masses, np.float64)
+    state = driver.run(simulation, simulation.init_fn(), 500, 500)  # equilibrate
+    series = {"light": [], "heavy": []}
+
+    def collect(result):
+        energies = masses[:, None] * np.asarray(result.state.velocities, np.float64) ** 2
+        series["light"].append(energies[:250].sum() / (3 * 250))
+        series["heavy"].append(energies[250:].sum() / (3 * 250))
+
+    driver.run(simulation, state, 4000, 10, on_chunk=collect)
+    for name, values in series.items():
+        mean, error = block_average(np.asarray(values), n_blocks=20)
+        tolerance = 4 * float(error) + INTEGRATOR_BIAS_BOUND
+        assert abs(float(mean) - 1.0) < tolerance, (name, float(mean), float(error))

@@ -59,7 +59,9 @@ def test_load_gives_back_scene_state_and_every_observable():
     assert record.scene == reference.scene
     assert_same_leaves(record.state, reference.summary.state)
     assert (record.checkpoint.step, record.checkpoint.phase) == (2400, "production")
-    assert list(record.observables) == ["temperature", "pressure_tensor", "pressure"]
+    parts = [f"pressure_tensor_part/{p}" for p in ("kinetic", "conservative", "dissipative")]
+    expected = ["temperature", *parts, "pressure_tensor_part/random", "pressure_tensor"]
+    assert list(record.observables) == [*expected, "pressure"]  # in the order written
     assert record.observables["pressure_tensor"].value.shape == (2400, 3, 3)
 
 

@@ -30,6 +30,21 @@ INVALID = [
     ({"neighbors": {"skin": 2.5}}, ValueError, ["box.lengths", "neighbors.skin"]),
     ({"pair": {"a": {"solvent-ghost": 25.0}}}, ValueError, ["unknown species", "ghost"]),
     (
+        {"particles": {"species": [{"name": "A", "mass": 0.0}]}},
+        ValueError,
+        ["particles.species[0].mass", "> 0"],
+    ),
+    (
+        {
+            "particles": {"species": [{"name": "A", "mass": 2.0}]},
+            "solvent": Replace({"method": "hoogerbrugge_koelman"}),
+            "pair": None,
+            "integrator": None,
+        },
+        ValueError,
+        ["mass", "unit masses"],
+    ),
+    (
         {
             "pair": {"a": [[25.0, 30.0], [31.0, 25.0]]},
             "particles": {

@@ -16,14 +16,16 @@ Layout written:
     /connectivity/bonds         (B, 2) bonded pairs of the polymer chains
     /observables/<name>/{step,time,value}        per-step series of the production
     /averages/rdf/{r, g}        g(r) averaged over the run (time-independent)
+    /averages/<species>/<g1|g2|g3|end_to_end_acf>/{lag_time,value,per_element}
+                                on-device time correlations over the production
     /checkpoint                 the whole state (jaxdpd.io.checkpoint)
 
 Times are step × integrator.dt.  Data carry no H5MD `unit` attribute: jaxdpd works
 in reduced units, which the H5MD units module (SI only) cannot express; the unit of
 each element is given by a `reduced_unit` attribute and the convention by
 /parameters:units.  MDAnalysis therefore opens the files with `convert_units=False`.
-g(r) sits under /averages rather than /observables because MDAnalysis reads every
-observable at every frame index.  Time series are written with Fletcher-32
+g(r) and the time correlations sit under /averages rather than /observables because
+MDAnalysis reads every observable at every frame index.  Time series are written with Fletcher-32
 checksums, so corrupted data raise an error when read.
 
 The file is flushed after every chunk: an interrupted run leaves a readable file.
@@ -219,6 +221,20 @@ class H5MDWriter:
         group.create_dataset("r", data=r).attrs["reduced_unit"] = "r_c"
         group.create_dataset("g", data=g)
         group.attrs["samples"] = samples
+
+    def write_correlation(self, name: str, lag_times, values) -> None:
+        """(Re)write a time correlation measured over the run:
+        `averages/<name>/{lag_time, value, per_element}`, the value averaged over its
+        chains (and beads), per_element (K, C[, M]) as measured."""
+        path = f"averages/{name}"
+        if path in self.file:
+            del self.file[path]
+        group = self.file.create_group(path)
+        values = np.asarray(values)
+        group.create_dataset("lag_time", data=np.asarray(lag_times, np.float64))
+        group["lag_time"].attrs["reduced_unit"] = reduced_unit("time")
+        group.create_dataset("value", data=values.reshape(len(values), -1).mean(axis=1))
+        group.create_dataset("per_element", data=values)
 
     def write_checkpoint(self, state, phase: str, reason: str, extras=None) -> None:
         """Store the whole state (jaxdpd.io.checkpoint) and flush."""

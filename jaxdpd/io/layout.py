@@ -19,6 +19,8 @@ _UNITS_BY_NAME = {
 def reduced_unit(name: str) -> str | None:
     """The reduced unit of an element named `name` (None when unknown)."""
     leaf = name.rsplit("/", 1)[-1]
+    if "pressure_tensor_part/" in name:
+        return _UNITS_BY_NAME["pressure_tensor"]
     if leaf.endswith("_sq"):
         return "r_c^2"
     return _UNITS_BY_NAME.get(leaf)

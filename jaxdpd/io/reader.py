@@ -126,14 +126,14 @@ def _series(group) -> Series:
     return Series(group["step"][()], group["time"][()], group["value"][()])
 
 
-def observable_names(handle) -> list[str]:
-    """Names of the observables stored in an open file ("temperature", "A/end_to_end_sq"),
-    in the order they were created."""
+def time_series_names(handle) -> list[str]:
+    """Names of the per-step series stored in an open file ("temperature",
+    "A/end_to_end_sq", "pressure_tensor_part/bond"), in the order they were created."""
 
     def names_in(group, prefix=""):
         for name, item in group.items():
             if isinstance(item, h5py.Group):
-                if "value" in item:
+                if "value" in item and "step" in item:
                     yield prefix + name
                 else:
                     yield from names_in(item, f"{prefix}{name}/")
@@ -152,14 +152,14 @@ def _read_element(path, element: str, hint) -> Series:
 def read_observable(path, name: str) -> Series:
     """One stored observable as NumPy arrays (step, time, value)."""
     return _read_element(
-        path, f"observables/{name}", lambda handle: f"stored: {observable_names(handle)}"
+        path, f"observables/{name}", lambda handle: f"stored: {time_series_names(handle)}"
     )
 
 
 def read_observables(path) -> dict:
     """Every stored observable: name -> Series."""
     with open_run_file(path) as handle:
-        return {name: _series(handle[f"observables/{name}"]) for name in observable_names(handle)}
+        return {name: _series(handle[f"observables/{name}"]) for name in time_series_names(handle)}
 
 
 def read_trajectory(path, element: str = "position") -> Series:
@@ -181,6 +181,6 @@ def load(path) -> RunRecord:
             info = checkpoint.read_checkpoint_info(handle)
             state = checkpoint.read_checkpoint_state(handle, build(scene).init_fn())
         observables = {
-            name: _series(handle[f"observables/{name}"]) for name in observable_names(handle)
+            name: _series(handle[f"observables/{name}"]) for name in time_series_names(handle)
         }
     return RunRecord(scene, state, info, observables)
