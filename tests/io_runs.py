@@ -23,7 +23,8 @@ import numpy as np
 from jaxdpd.runner import simulate
 from jaxdpd.scene import Scene
 
-# 375 particles (a 5³ box at ρ = 3), float64; 120 chunks of 20 steps.
+# 375 particles (a 5³ box at ρ = 3), float64, in Lees–Edwards shear (a box state in
+# SimState); 120 chunks of 20 steps.
 SCENE_TOML = """
 seed = 11
 precision = "float64"
@@ -35,14 +36,16 @@ method = "dpd"
 gamma = 4.5
 [pair]
 a = 25.0
+[flow]
+kind = "shear"
+shear_rate = 0.5
 [integrator]
 dt = 0.04
 [run]
 steps = 2400
 chunk = 20
 [output]
-observables = ["temperature", "pressure", "rdf"]
-rdf_max = 2.0
+observables = ["temperature", "pressure"]
 trajectory_every = 20
 checkpoint_every = 100
 """
@@ -124,7 +127,8 @@ def assert_same_leaves(state, expected) -> None:
 
 
 # FENE dumbbells in a DPD solvent, float32, equilibration, frames and periodic
-# checkpoints in both phases, every observable.  (The cell list: jax-md's lists get a
+# checkpoints in both phases, every observable for a box at rest, on-device
+# correlators (SimState.observers).  (The cell list: jax-md's lists get a
 # new update function, a static field, at every allocation, so each run of a jax-md
 # scene compiles its chunks again; test_restart runs one as a slow test.)
 POLYMER_SCENE_TOML = """
@@ -148,7 +152,9 @@ equilibration = 40
 steps = 100
 chunk = 10
 [output]
-observables = ["temperature", "pressure", "conformation", "rdf"]
+observables = ["temperature", "pressure", "conformation", "dynamics", "rdf"]
+correlator_every = 5
+correlator_levels = 3
 rdf_max = 1.5
 rdf_bins = 30
 trajectory_every = 20

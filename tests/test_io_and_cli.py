@@ -2,7 +2,7 @@
 
 import h5py
 import numpy as np
-from io_runs import assert_same_leaves, reference_run
+from io_runs import assert_same_leaves, polymer_reference_run, reference_run
 
 from jaxdpd.cli import demo_scene, main
 from jaxdpd.io import load, read_observable, read_scene, read_trajectory
@@ -15,7 +15,7 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
     likewise, species, observables with step and time = step × dt, g(r), checkpoint."""
     reference = reference_run()
     scene, path = reference.scene, reference.path
-    steps, chunk, every = scene.run.steps, scene.run.chunk, scene.output.trajectory_every
+    steps, every = scene.run.steps, scene.output.trajectory_every
     with h5py.File(path, "r") as handle:
         assert list(handle["h5md"].attrs["version"]) == [1, 1]
         assert handle["h5md/creator"].attrs["name"] == "jaxdpd"
@@ -41,8 +41,6 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
         assert temperature["value"].fletcher32
         assert temperature["time"].attrs["reduced_unit"] == "τ"
         assert handle["observables/pressure_tensor/value"].shape == (steps, 3, 3)
-        assert handle["averages/rdf/g"].shape == (scene.output.rdf_bins,)
-        assert handle["averages/rdf"].attrs["samples"] == steps // chunk
         assert handle["checkpoint"].attrs["reason"] == "end of run"
         assert handle["checkpoint"].attrs["step"] == steps
     assert read_scene(path) == scene
@@ -51,6 +49,23 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
     np.testing.assert_array_equal(series.time, series.step * scene.integrator.dt)
     final = read_trajectory(path, "position").value[-1]
     np.testing.assert_array_equal(final, reference.summary.state.positions)
+
+
+def test_polymer_runs_store_bonds_and_run_averages():
+    """/connectivity/bonds (H5MD 1.1 "Connectivity group"), g(r) and the on-device
+    time correlations under /averages."""
+    reference = polymer_reference_run()
+    scene = reference.scene
+    with h5py.File(reference.path, "r") as handle:
+        bonds = handle["connectivity/bonds"]
+        assert handle[bonds.attrs["particles_group"]].name == "/particles/all"
+        np.testing.assert_array_equal(bonds[:3], [[0, 1], [2, 3], [4, 5]])
+        assert handle["averages/rdf/g"].shape == (scene.output.rdf_bins,)
+        assert handle["averages/rdf"].attrs["samples"] == scene.run.steps // scene.run.chunk
+        for name in ("g1", "g2", "g3", "end_to_end_acf"):
+            correlation = handle[f"averages/dumbbell/{name}"]
+            assert correlation["lag_time"].shape == correlation["value"].shape
+    assert "dumbbell/D_CM" in reference.summary.averages
 
 
 def test_load_gives_back_scene_state_and_every_observable():

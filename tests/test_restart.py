@@ -52,8 +52,18 @@ def assert_same_run(path, reference) -> None:
         ):
             np.testing.assert_array_equal(a, b, err_msg=element)
     with open_run_file(path) as mine, open_run_file(reference.path) as other:
-        np.testing.assert_array_equal(mine["averages/rdf/g"][()], other["averages/rdf/g"][()])
+        for name in _datasets(other, "averages"):  # g(r), time correlations
+            np.testing.assert_array_equal(mine[name][()], other[name][()], err_msg=name)
     assert read_checkpoint(path)["reason"] == "end of run"
+
+
+def _datasets(handle, root: str) -> list[str]:
+    names = []
+    if root in handle:
+        handle[root].visititems(
+            lambda name, item: names.append(f"{root}/{name}") if hasattr(item, "dtype") else None
+        )
+    return names
 
 
 class _StderrReader(threading.Thread):
