@@ -38,10 +38,14 @@ VALID_SCENES = {
         "box": {"kind": "periodic", "lengths": [6.0, 5.0, 5.0]},
         "particles": {
             "density": 3.0,
-            "species": [{"name": "A", "fraction": 0.5}, {"name": "B", "fraction": 0.5}],
+            "species": [
+                {"name": "A", "fraction": 0.5, "mass": 2.0},
+                {"name": "B", "fraction": 0.5},
+            ],
         },
         "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5, "noise": "gaussian"},
         "pair": {"kind": "soft_repulsion", "a": {"A-A": 25.0, "B-B": 25.0, "A-B": 30.0}},
+        "body_force": {"kind": "cosine", "amplitude": 0.1, "waves": 1},
         "neighbors": {"method": "jax_md", "format": "dense", "skin": 0.2},
         "run": {"steps": 200, "chunk": 50, "equilibration": 50},
         "output": {"path": "x.h5", "observables": ["rdf"], "rdf_max": 2.0, "trajectory_every": 100},
