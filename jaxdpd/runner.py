@@ -34,7 +34,7 @@ from jaxdpd.io.checkpoint import (
     read_checkpoint_state,
 )
 from jaxdpd.io.errors import RunFileError
-from jaxdpd.io.h5md import H5MDWriter
+from jaxdpd.io.h5md import H5MDWriter, box_edges
 from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
 from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
@@ -237,7 +237,8 @@ class Run:
             self.writer.append_observables(result.first_step, result.series)
             every = scene.output.trajectory_every
             if every and (step - start) % every == 0:
-                self.writer.append_frame(state, scene.box.lengths)
+                bound_box = self.simulation.box.bind(state.box_state)
+                self.writer.append_frame(state, box_edges(bound_box))
             self._periodic_checkpoint(state, start)
             self.writer.flush()
         self.bar.update(step - self.start_step)

@@ -59,6 +59,15 @@ def reference_scene() -> Scene:
     return Scene.from_toml_string(SCENE_TOML)
 
 
+def lees_edwards_edges(scene, step: int) -> np.ndarray:
+    """Lattice vectors (rows) of the sheared box after `step` steps at constant rate:
+    a2 = (Δ, L_y, 0) with Δ = γ̇ L_y t folded into [−L_x/2, L_x/2) (thesis §3.3)."""
+    lx, ly, lz = scene.box.lengths
+    offset = scene.flow.shear_rate * ly * step * scene.integrator.dt
+    offset -= lx * np.floor(offset / lx + 0.5)
+    return np.array([[lx, 0.0, 0.0], [offset, ly, 0.0], [0.0, 0.0, lz]])
+
+
 @dataclass
 class MemoryProbe:
     """Traced allocations and live JAX arrays at the two ends of MEMORY_WINDOW, and

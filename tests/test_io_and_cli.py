@@ -2,7 +2,12 @@
 
 import h5py
 import numpy as np
-from io_runs import assert_same_leaves, polymer_reference_run, reference_run
+from io_runs import (
+    assert_same_leaves,
+    lees_edwards_edges,
+    polymer_reference_run,
+    reference_run,
+)
 
 from jaxdpd.cli import demo_scene, main
 from jaxdpd.io import load, read_observable, read_scene, read_trajectory
@@ -12,7 +17,7 @@ from jaxdpd.statistics import block_average
 def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint():
     """Layout of H5MD 1.1 (nongnu.org/h5md, "H5MD root level", "Particles group",
     "Simulation box"): metadata, box with step/time hard-linked to position's, image
-    likewise, species, observables with step and time = step × dt, g(r), checkpoint."""
+    likewise, species, observables with step and time = step × dt, checkpoint."""
     reference = reference_run()
     scene, path = reference.scene, reference.path
     steps, every = scene.run.steps, scene.output.trajectory_every
@@ -32,7 +37,11 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
         for element in ("velocity", "image", "box/edges"):
             assert particles[f"{element}/step"] == position["step"]  # one object: hard link
             assert particles[f"{element}/time"] == position["time"]
-        np.testing.assert_array_equal(particles["box/edges/value"][-1], scene.box.lengths)
+        # Lees–Edwards shear: triclinic edges whose a2 carries the offset; the run
+        # sums Δ step by step, the formula at once: equal to round-off (1e-12).
+        edges = particles["box/edges/value"][()]
+        expected = [lees_edwards_edges(scene, step) for step in frames]
+        np.testing.assert_allclose(edges, expected, rtol=0, atol=1e-12)
         assert particles["image/value"].dtype == np.int32
         species = particles["species"]
         assert h5py.check_enum_dtype(species.dtype) == {"solvent": 0}

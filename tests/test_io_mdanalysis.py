@@ -9,14 +9,14 @@ float64 values written (exact equality: one correctly rounded conversion).
 import h5py
 import numpy as np
 import pytest
-from io_runs import polymer_reference_run, reference_run
+from io_runs import lees_edwards_edges, polymer_reference_run, reference_run
 
 MDAnalysis = pytest.importorskip("MDAnalysis")
 
 from jaxdpd.io.mdanalysis import mdanalysis_universe  # noqa: E402
 
 
-def test_mdanalysis_reads_positions_box_time_and_reports_no_physical_units():
+def test_mdanalysis_reads_positions_sheared_box_time_and_reports_no_physical_units():
     reference = reference_run()
     scene, path = reference.scene, reference.path
     universe = MDAnalysis.Universe.empty(scene.n_particles, trajectory=True)
@@ -32,8 +32,14 @@ def test_mdanalysis_reads_positions_box_time_and_reports_no_physical_units():
     for frame, timestep in enumerate(trajectory):
         np.testing.assert_array_equal(timestep.positions, written[frame].astype(np.float32))
         np.testing.assert_array_equal(timestep.velocities, velocities[frame].astype(np.float32))
-        box = np.array([*scene.box.lengths, 90, 90, 90], np.float32)
-        np.testing.assert_array_equal(timestep.dimensions, box)
+        # The sheared box as a triclinic cell: |a|, |b|, |c| and the angles α(b, c),
+        # β(a, c), γ(a, b) of a = (L_x, 0, 0), b = (Δ, L_y, 0), c = (0, 0, L_z).  float32
+        # in MDAnalysis: rtol 1e-6 covers its rounding (the offset formula and the
+        # run's step-by-step sum of Δ agree to 1e-12).
+        (lx, _, _), (offset, ly, _), (_, _, lz) = lees_edwards_edges(scene, steps[frame])
+        b = np.hypot(offset, ly)
+        box = [lx, b, lz, 90.0, 90.0, np.degrees(np.arccos(offset / b))]
+        np.testing.assert_allclose(timestep.dimensions, box, rtol=1e-6)
         assert timestep.data["step"] == steps[frame]
         assert timestep.time == pytest.approx(steps[frame] * scene.integrator.dt, rel=1e-15)
     final = np.asarray(reference.summary.state.positions).astype(np.float32)

@@ -7,8 +7,10 @@ Layout written:
     /parameters                 attrs: scene (JSON of Scene.to_dict), units
     /particles/all
          box                    dimension = 3, boundary = periodic ×3
-              edges/{step,time,value (T, 3)}     sampled with the positions, or a
-                                                 fixed (3,) dataset without frames
+              edges/{step,time,value (T, 3)}     sampled with the positions (T, 3, 3
+                                                 lattice vectors in Lees–Edwards
+                                                 shear, see box_edges), or the fixed
+                                                 (3,) edge lengths without frames
          species                (N,) HDF5 enumeration: species index → name
          position/{step,time,value (T, N, 3)}    every output.trajectory_every
          velocity/{value (T, N, 3)}              production steps; step and time
@@ -57,6 +59,27 @@ def time_series_groups(handle) -> list:
         if root in handle:
             handle[root].visititems(visit)
     return found
+
+
+def box_edges(bound_box) -> np.ndarray:
+    """The H5MD `edges` of a box at one instant (float64).
+
+    A box at rest gives its edge lengths (3,) (H5MD "cuboid").  A Lees–Edwards box
+    gives its lattice vectors as rows (3, 3), a1 = (L_x, 0, 0), a2 = (Δ, L_y, 0),
+    a3 = (0, 0, L_z) with Δ its current offset (H5MD "triclinic"): the periodic
+    images of a sheared system are exactly those of this lattice, so tools that read
+    triclinic boxes (MDAnalysis) find the right minimum images.
+
+    Args:
+        bound_box: the simulation's box bound to a state's box_state.
+    """
+    lengths = np.asarray(bound_box.lengths, np.float64)
+    offset = getattr(bound_box, "offset", None)
+    if offset is None:
+        return lengths
+    edges = np.diag(lengths)
+    edges[1, 0] = float(offset)
+    return edges
 
 
 def bond_pairs(blocks) -> np.ndarray:
