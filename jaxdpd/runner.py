@@ -232,7 +232,7 @@ class Run:
             for name, values in result.series.items():
                 self.series.setdefault(name, []).append(values)
         if self.rdf is not None:
-            self.rdf.sample(state.positions)
+            self.rdf.sample(state.positions, state.box_state)
         if self.writer is not None:
             self.writer.append_observables(result.first_step, result.series)
             every = scene.output.trajectory_every

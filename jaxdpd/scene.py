@@ -323,7 +323,7 @@ class Scene:
         integrator = _read_integrator(data.get("integrator"), solvent)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), lengths, run.chunk)
+        output = _read_output(data.get("output", {}), heights, run.chunk)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
@@ -782,7 +782,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, lengths, chunk: int) -> Output:
+def _read_output(section, heights, chunk: int) -> Output:
     check_keys(
         section,
         (
@@ -811,10 +811,10 @@ def _read_output(section, lengths, chunk: int) -> Output:
                 f"output.{key} = {every[key]}: {what} are written at chunk ends, so it "
                 f"must be a multiple of run.chunk = {chunk} (or 0 for none)"
             )
-    if "rdf" in observables and not rdf_max < min(lengths) / 2:
+    if "rdf" in observables and not rdf_max < min(heights) / 2:
         raise ValueError(
-            f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
-            f"({min(lengths) / 2:.4g})"
+            f"output.rdf_max = {rdf_max}: must be < half the box's thinnest extent "
+            f"({min(heights) / 2:.4g}; the shortest edge, or a sheared box's tilted height)"
         )
     return Output(
         path=read_string(section, "path", "output", None),
