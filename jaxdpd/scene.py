@@ -44,7 +44,10 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 "pressure", "rdf", "conformation", "dynamics", "profile"}; rdf_bins,
                 rdf_max; profile_bins ≥ 1 (slabs along y);
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
-                samples of the "dynamics" correlators), correlator_levels ≥ 1
+                samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                checkpoint_every (steps, 0 = only at the end, on errors and on
+                SIGINT/SIGTERM); trajectory_every and checkpoint_every are multiples
+                of run.chunk
 """
 
 import json
@@ -74,6 +77,7 @@ BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
 FLOW_SOLVENTS = ("dpd", "lowe_andersen")
 OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
+MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
 @dataclass(frozen=True)
@@ -217,6 +221,7 @@ class Output:
     rdf_bins: int = 100
     rdf_max: float = 3.0
     trajectory_every: int = 0
+    checkpoint_every: int = 0
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
@@ -327,7 +332,7 @@ class Scene:
         _check_collision_probability(solvent, integrator)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), lengths, run.chunk)
+        output = _read_output(data.get("output", {}), heights, run.chunk)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
@@ -615,7 +620,9 @@ def _read_particles(section, lengths, chain_lengths: dict):
     if "density" in section:
         density = read_number(section, "density", "particles", minimum=0, exclusive_minimum=True)
     if "count" in section:
-        count = read_number(section, "count", "particles", minimum=2, integer=True)
+        count = read_number(
+            section, "count", "particles", minimum=2, maximum=MAX_PARTICLES, integer=True
+        )
     if lengths is not None:
         volume = math.prod(lengths)
         if (density is None) == (count is None):
@@ -624,6 +631,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "and particles.count"
             )
         if count is None:
+            if not density * volume <= MAX_PARTICLES:
+                raise ValueError(
+                    f"particles.density = {density}: the box would hold {density * volume:.4g} "
+                    f"particles, more than {MAX_PARTICLES} (int32 particle indices)"
+                )
             count = round(density * volume)
             if count < 2:
                 raise ValueError(
@@ -637,6 +649,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "particles.count (the box is then cubic)"
             )
         side = (count / density) ** (1.0 / 3.0)
+        if not math.isfinite(side):
+            raise ValueError(
+                f"particles.density = {density}: a cubic box of {count} particles at this "
+                "density has no finite side; give a larger density"
+            )
         lengths = (side, side, side)
         density = count / math.prod(lengths)
     species = _read_species(section.get("species", [{"name": "solvent"}]), count, chain_lengths)
@@ -842,7 +859,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, lengths, chunk: int) -> Output:
+def _read_output(section, heights, chunk: int) -> Output:
     check_keys(
         section,
         (
@@ -851,6 +868,7 @@ def _read_output(section, lengths, chunk: int) -> Output:
             "rdf_bins",
             "rdf_max",
             "trajectory_every",
+            "checkpoint_every",
             "correlator_every",
             "correlator_levels",
             "profile_bins",
@@ -862,25 +880,25 @@ def _read_output(section, lengths, chunk: int) -> Output:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")
     rdf_max = read_number(section, "rdf_max", "output", 3.0, minimum=0, exclusive_minimum=True)
-    trajectory_every = read_number(
-        section, "trajectory_every", "output", 0, minimum=0, integer=True
-    )
-    if trajectory_every % chunk:
+    every = {}
+    for key, what in (("trajectory_every", "frames"), ("checkpoint_every", "checkpoints")):
+        every[key] = read_number(section, key, "output", 0, minimum=0, integer=True)
+        if every[key] % chunk:
+            raise ValueError(
+                f"output.{key} = {every[key]}: {what} are written at chunk ends, so it "
+                f"must be a multiple of run.chunk = {chunk} (or 0 for none)"
+            )
+    if "rdf" in observables and not rdf_max < min(heights) / 2:
         raise ValueError(
-            f"output.trajectory_every = {trajectory_every}: frames are written at chunk ends, "
-            f"so it must be a multiple of run.chunk = {chunk} (or 0 for no frames)"
-        )
-    if "rdf" in observables and not rdf_max < min(lengths) / 2:
-        raise ValueError(
-            f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
-            f"({min(lengths) / 2:.4g})"
+            f"output.rdf_max = {rdf_max}: must be < half the box's thinnest extent "
+            f"({min(heights) / 2:.4g}; the shortest edge, or a sheared box's tilted height)"
         )
     return Output(
         path=read_string(section, "path", "output", None),
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
-        trajectory_every=trajectory_every,
+        **every,
         correlator_every=read_number(
             section, "correlator_every", "output", 10, minimum=1, integer=True
         ),
