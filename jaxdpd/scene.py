@@ -21,18 +21,22 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
                 off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
                 method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
+                method = "lowe_andersen": kT > 0, collision_frequency Γ ≥ 0 (0 =
+                thermostat off; Γ · integrator.dt ≤ 1), thermalization_cutoff r_T > 0
+                (default: cutoff)
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
-                {"A-B" = a_AB, ...} over species names (dpd only)
+                {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen)
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
                 law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
                 (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd solvents only
+                wca_sigma = 1); dpd and lowe_andersen solvents only
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
+                (not for lowe_andersen, whose forces do not depend on velocity)
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
@@ -61,7 +65,8 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen")
+LOWE_ANDERSEN_KEYS = ("collision_frequency", "thermalization_cutoff")
 NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
@@ -69,7 +74,7 @@ JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
 BOX_KINDS = ("periodic", "lees_edwards")
 FLOW_KINDS = ("shear",)
 BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
-FLOW_SOLVENTS = ("dpd",)
+FLOW_SOLVENTS = ("dpd", "lowe_andersen")
 OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
@@ -127,6 +132,8 @@ class Solvent:
     pi0: float = 1.0 / 3.0
     omega: float = 4.0 / 3.0
     delta_pi: float = 1.0 / 3.0
+    collision_frequency: float = 0.0
+    thermalization_cutoff: float | None = None
 
     @property
     def sigma(self) -> float:
@@ -302,14 +309,15 @@ class Scene:
             if isinstance(entry.get("species"), str) and isinstance(entry.get("beads"), int)
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
-        list_cutoff = cutoff + neighbors.skin
+        range_name, pair_range = _pair_range(cutoff, solvent)
+        list_cutoff = pair_range + neighbors.skin
         heights = make_box(box_kind, lengths, flow).cell_heights
         for axis, length, height in zip("xyz", lengths, heights, strict=True):
             if not height > 2 * list_cutoff:
                 tilted = f" (its thickness {height:.4g} at the largest shear tilt)"
                 raise ValueError(
                     f"box.lengths: L_{axis} = {length:.4g}{tilted if height != length else ''} "
-                    f"must exceed 2 (cutoff + neighbors.skin) = {2 * list_cutoff:.4g}; "
+                    f"must exceed 2 ({range_name} + neighbors.skin) = {2 * list_cutoff:.4g}; "
                     "enlarge the box or add particles"
                 )
         if solvent.method == "hoogerbrugge_koelman" and any(
@@ -321,6 +329,7 @@ class Scene:
             )
         pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
+        _check_collision_probability(solvent, integrator)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), heights, run.chunk)
@@ -372,6 +381,8 @@ class Scene:
         """The full resolved scene as plain data; `from_dict` reloads it unchanged."""
         data = asdict(self)
         data["integrator"]["lambda"] = data["integrator"].pop("lambda_")
+        if self.solvent.method == "lowe_andersen":
+            del data["integrator"]["lambda"]
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
             "count": self.particles.count,
@@ -429,6 +440,15 @@ def _solvent_dict(solvent: Solvent) -> dict:
             "gamma": solvent.gamma,
             "noise": solvent.noise,
         }
+    if solvent.method == "lowe_andersen":
+        data = {
+            "method": "lowe_andersen",
+            "kT": solvent.kT,
+            "collision_frequency": solvent.collision_frequency,
+        }
+        if solvent.thermalization_cutoff is not None:
+            data["thermalization_cutoff"] = solvent.thermalization_cutoff
+        return data
     return {
         "method": solvent.method,
         "pi0": solvent.pi0,
@@ -440,10 +460,16 @@ def _solvent_dict(solvent: Solvent) -> dict:
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi"),
+        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi")
+        + LOWE_ANDERSEN_KEYS,
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
+    if method == "lowe_andersen":
+        return _read_lowe_andersen(section)
+    misplaced = sorted(set(LOWE_ANDERSEN_KEYS) & set(section))
+    if misplaced:
+        raise ValueError(f"solvent: {misplaced} belong to method 'lowe_andersen', not {method!r}")
     if method == "dpd":
         misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
         if misplaced:
@@ -470,6 +496,51 @@ def _read_solvent(section) -> Solvent:
         omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
         delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
     )
+
+
+def _read_lowe_andersen(section) -> Solvent:
+    """The Lowe–Andersen thermostat's parameters (thesis §2.3.2)."""
+    misplaced = sorted({"gamma", "sigma", "noise", "pi0", "omega", "delta_pi"} & set(section))
+    if misplaced:
+        raise ValueError(
+            f"solvent: {misplaced} are not parameters of method 'lowe_andersen' (it has "
+            f"kT and {list(LOWE_ANDERSEN_KEYS)}; the pair collisions replace the "
+            "dissipative and random forces)"
+        )
+    if "collision_frequency" not in section:
+        raise ValueError(
+            "solvent.collision_frequency: required field is missing (the bath collision "
+            "frequency Γ of method 'lowe_andersen', ≥ 0, with Γ · integrator.dt ≤ 1)"
+        )
+    return Solvent(
+        "lowe_andersen",
+        kT=read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True),
+        collision_frequency=read_number(section, "collision_frequency", "solvent", minimum=0),
+        thermalization_cutoff=read_number(
+            section, "thermalization_cutoff", "solvent", None, minimum=0, exclusive_minimum=True
+        ),
+    )
+
+
+def _pair_range(cutoff: float, solvent: Solvent) -> tuple[str, float]:
+    """(field name, value) of the longest pair range: r_c, or a longer r_T."""
+    if solvent.thermalization_cutoff is not None and solvent.thermalization_cutoff > cutoff:
+        return "solvent.thermalization_cutoff", solvent.thermalization_cutoff
+    return "cutoff", cutoff
+
+
+def _check_collision_probability(solvent: Solvent, integrator: Integrator) -> None:
+    """Γ Δt is the probability that a pair is thermalised in a step: at most 1."""
+    if solvent.method != "lowe_andersen":
+        return
+    frequency, dt = solvent.collision_frequency, integrator.dt
+    if frequency * dt > 1 + 1e-12:
+        raise ValueError(
+            f"solvent.collision_frequency × integrator.dt = {frequency:g} × {dt:g} = "
+            f"{frequency * dt:.4g} > 1: Γ Δt is the probability that a pair is thermalised "
+            f"in a step (thesis §2.3.2); use collision_frequency ≤ 1/dt = {1 / dt:.6g} "
+            f"or integrator.dt ≤ 1/collision_frequency = {1 / frequency:.6g}"
+        )
 
 
 def _kind(flow: Flow | None) -> str | None:
@@ -707,9 +778,10 @@ def _polymer_entries(entries) -> list:
 
 
 def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
-    if entries and solvent.method != "dpd":
+    if entries and solvent.method not in ("dpd", "lowe_andersen"):
         raise ValueError(
-            f"polymers: bead-spring chains need solvent.method = 'dpd' (got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd' or 'lowe_andersen' "
+            f"(got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -767,6 +839,11 @@ def _read_bond(section, path: str, lengths) -> dict:
 def _read_integrator(section, solvent: Solvent) -> Integrator:
     section = section if section is not None else {}
     check_keys(section, ("dt", "lambda"), "integrator")
+    if solvent.method == "lowe_andersen" and "lambda" in section:
+        raise ValueError(
+            "integrator.lambda: the Lowe–Andersen step has no velocity-dependent force, so "
+            "the λ of Groot and Warren's modified velocity Verlet plays no role; remove it"
+        )
     default_dt = 1.0 if solvent.method == "hoogerbrugge_koelman" else 0.04
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
