@@ -8,7 +8,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
 
     seed        integer in [0, 2³²)                     noise and initial state
     precision   "float32" | "float64"
-    cutoff      r_c > 0 of all pair interactions        default 1
+    cutoff      r_c > 0 of all pair interactions        default 1 (2^(1/6) σ for
+                pair.kind = "wca", which is the only value allowed then)
     [box]       kind = "periodic"; lengths = [Lx, Ly, Lz] (optional, see particles)
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
@@ -17,21 +18,32 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
                 off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
                 method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
+                method = "lattice_boltzmann" (fluctuating D3Q19 fluid with friction-
+                coupled beads; the particles are the beads): kT ≥ 0 (0 = no
+                fluctuations), grid_spacing a > 0 (box edges whole multiples of it),
+                time_step τ > 0 (a whole multiple of integrator.dt), mass_density ρ > 0,
+                kinematic_viscosity ν > 0, kinematic_bulk_viscosity ν_b > 0 (default
+                ν), friction ζ > 0 (bare bead–fluid friction), noise = "uniform"|
+                "gaussian"; units are the scene's own (e.g. Lennard-Jones units)
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
                 {"A-B" = a_AB, ...} over species names (dpd only)
+                kind = "wca": epsilon > 0, sigma > 0 (Weeks–Chandler–Andersen,
+                cut-off 2^(1/6) σ)
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
                 law = "hookean" (spring_constant) | "fraenkel" (spring_constant,
                 rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd solvents only
-    [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
+                wca_sigma = 1); dpd and lattice_boltzmann solvents
+    [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
+                lattice_boltzmann); lambda in [0, 1] (dpd only)
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation"}; rdf_bins, rdf_max;
+                "pressure", "rdf", "conformation"} (default temperature and
+                pressure; no pressure with lattice_boltzmann); rdf_bins, rdf_max;
                 trajectory_every (0 = never)
 """
 
@@ -49,7 +61,19 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lattice_boltzmann")
+LATTICE_BOLTZMANN_FIELDS = (
+    "grid_spacing",
+    "time_step",
+    "mass_density",
+    "kinematic_viscosity",
+    "kinematic_bulk_viscosity",
+    "friction",
+)
+PAIR_KINDS = ("soft_repulsion", "wca")
+# Largest thermal Mach number² k_BT/(ρ a³ c_s²) of a lattice-Boltzmann node: beyond it
+# the density fluctuations (its square root) make negative densities likely.
+MAX_THERMAL_MACH_NUMBER_SQ = 0.1
 NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
@@ -94,6 +118,12 @@ class Solvent:
     pi0: float = 1.0 / 3.0
     omega: float = 4.0 / 3.0
     delta_pi: float = 1.0 / 3.0
+    grid_spacing: float = 1.0
+    time_step: float = 1.0
+    mass_density: float = 1.0
+    kinematic_viscosity: float = 1.0
+    kinematic_bulk_viscosity: float = 1.0
+    friction: float = 1.0
 
     @property
     def sigma(self) -> float:
@@ -103,10 +133,13 @@ class Solvent:
 
 @dataclass(frozen=True)
 class Pair:
-    """Conservative pair force: soft repulsion with species matrix a (S×S)."""
+    """Conservative pair force: soft repulsion with species matrix a (S×S), or the
+    WCA repulsion with epsilon and sigma (the same for all pairs)."""
 
     kind: str
-    a: tuple[tuple[float, ...], ...]
+    a: tuple[tuple[float, ...], ...] = ()
+    epsilon: float = 1.0
+    sigma: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -240,6 +273,9 @@ class Scene:
             if isinstance(entry.get("species"), str) and isinstance(entry.get("beads"), int)
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
+        pair = _read_pair(data.get("pair"), solvent, particles.species)
+        if pair is not None and pair.kind == "wca":
+            cutoff = _wca_cutoff(data, pair)
         list_cutoff = cutoff + neighbors.skin
         for axis, length in zip("xyz", lengths, strict=True):
             if not length > 2 * list_cutoff:
@@ -254,11 +290,12 @@ class Scene:
                 "particles.species[].mass: the Hoogerbrugge–Koelman update is written for "
                 "unit masses; remove the masses or use solvent.method = 'dpd'"
             )
-        pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
+        if solvent.method == "lattice_boltzmann":
+            _check_lattice(solvent, lengths, integrator)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), lengths, run.chunk)
+        output = _read_output(data.get("output", {}), lengths, run.chunk, solvent)
         if "conformation" in output.observables and not polymers:
             raise ValueError(
                 "output.observables: 'conformation' measures polymers; add a [[polymers]] "
@@ -291,6 +328,13 @@ class Scene:
         return math.prod(self.box.lengths)
 
     @property
+    def particle_momentum_conserved(self) -> bool:
+        """Whether the particles' total momentum is constant (False for beads that
+        exchange momentum with a lattice-Boltzmann fluid): 3N − 3 or 3N kinetic
+        degrees of freedom."""
+        return self.solvent.method != "lattice_boltzmann"
+
+    @property
     def species_names(self) -> tuple[str, ...]:
         """Species names in index order."""
         return tuple(s.name for s in self.particles.species)
@@ -299,6 +343,8 @@ class Scene:
         """The full resolved scene as plain data; `from_dict` reloads it unchanged."""
         data = asdict(self)
         data["integrator"]["lambda"] = data["integrator"].pop("lambda_")
+        if self.solvent.method == "lattice_boltzmann":
+            del data["integrator"]["lambda"]
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
             "count": self.particles.count,
@@ -309,6 +355,8 @@ class Scene:
         data["solvent"] = _solvent_dict(self.solvent)
         if self.pair is None:
             del data["pair"]
+        elif self.pair.kind == "wca":
+            data["pair"] = {"kind": "wca", "epsilon": self.pair.epsilon, "sigma": self.pair.sigma}
         else:
             data["pair"] = {"kind": self.pair.kind, "a": [list(row) for row in self.pair.a]}
         data["polymers"] = [
@@ -343,6 +391,9 @@ class Scene:
 
 
 def _solvent_dict(solvent: Solvent) -> dict:
+    if solvent.method == "lattice_boltzmann":
+        fields = {name: getattr(solvent, name) for name in LATTICE_BOLTZMANN_FIELDS}
+        return {"method": solvent.method, "kT": solvent.kT, "noise": solvent.noise, **fields}
     if solvent.method == "dpd":
         return {
             "method": "dpd",
@@ -361,10 +412,25 @@ def _solvent_dict(solvent: Solvent) -> dict:
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi"),
+        (
+            "method",
+            "kT",
+            "gamma",
+            "sigma",
+            "noise",
+            "pi0",
+            "omega",
+            "delta_pi",
+            *LATTICE_BOLTZMANN_FIELDS,
+        ),
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
+    if method == "lattice_boltzmann":
+        return _read_lattice_boltzmann(section)
+    lattice_only = sorted(set(LATTICE_BOLTZMANN_FIELDS) & set(section))
+    if lattice_only:
+        raise ValueError(f"solvent: {lattice_only} belong to method 'lattice_boltzmann'")
     if method == "dpd":
         misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
         if misplaced:
@@ -391,6 +457,63 @@ def _read_solvent(section) -> Solvent:
         omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
         delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
     )
+
+
+def _read_lattice_boltzmann(section) -> Solvent:
+    """The fields of solvent.method = "lattice_boltzmann" (see the module docstring)."""
+    misplaced = sorted({"gamma", "sigma", "pi0", "omega", "delta_pi"} & set(section))
+    if misplaced:
+        raise ValueError(f"solvent: {misplaced} are not fields of method 'lattice_boltzmann'")
+    positive = {"minimum": 0, "exclusive_minimum": True}
+    fields = {
+        name: read_number(section, name, "solvent", **positive)
+        for name in (
+            "grid_spacing",
+            "time_step",
+            "mass_density",
+            "kinematic_viscosity",
+            "friction",
+        )
+    }
+    fields["kinematic_bulk_viscosity"] = read_number(
+        section, "kinematic_bulk_viscosity", "solvent", fields["kinematic_viscosity"], **positive
+    )
+    kT = read_number(section, "kT", "solvent", 1.0, minimum=0)
+    noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
+    a, tau, rho = fields["grid_spacing"], fields["time_step"], fields["mass_density"]
+    mach_sq = 3 * kT * tau * tau / (rho * a**5)
+    if mach_sq > MAX_THERMAL_MACH_NUMBER_SQ:
+        raise ValueError(
+            f"solvent: the thermal Mach number² kT/(mass_density a³ c_s²) = {mach_sq:.3g} "
+            f"(c_s² = a²/(3 τ²)) exceeds {MAX_THERMAL_MACH_NUMBER_SQ}: node densities would "
+            "fluctuate by more than a third and turn negative; reduce time_step or kT, or "
+            "raise mass_density or grid_spacing"
+        )
+    return Solvent("lattice_boltzmann", kT=kT, noise=noise, **fields)
+
+
+def lattice_nodes(lengths, grid_spacing: float) -> tuple[int, int, int]:
+    """Nodes per box edge, n_α = L_α/a (whole numbers, checked by the scene)."""
+    return tuple(round(length / grid_spacing) for length in lengths)
+
+
+def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
+    """Box edges whole multiples of the grid spacing, τ a whole multiple of Δt."""
+    a = solvent.grid_spacing
+    for axis, (length, n) in enumerate(zip(lengths, lattice_nodes(lengths, a), strict=True)):
+        if n < 1 or not math.isclose(n * a, length, rel_tol=1e-9):
+            raise ValueError(
+                f"box.lengths: L_{'xyz'[axis]} = {length:.6g} is not a whole number of "
+                f"solvent.grid_spacing = {a:.6g}; make every edge n a (e.g. "
+                f"{max(1, n) * a:.6g})"
+            )
+    substeps = round(solvent.time_step / integrator.dt)
+    if substeps < 1 or not math.isclose(substeps * integrator.dt, solvent.time_step, rel_tol=1e-9):
+        raise ValueError(
+            f"solvent.time_step = {solvent.time_step:.6g}: the LB time step must be a whole "
+            f"number n ≥ 1 of MD steps integrator.dt = {integrator.dt:.6g} (e.g. "
+            f"{max(1, substeps) * integrator.dt:.6g})"
+        )
 
 
 def _read_neighbors(section) -> Neighbors:
@@ -502,8 +625,20 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
             "pair: the Hoogerbrugge–Koelman update carries its own conservative part "
             "(solvent.pi0); remove the [pair] section"
         )
-    check_keys(section, ("kind", "a"), "pair")
-    kind = read_choice(section, "kind", "pair", ("soft_repulsion",), "soft_repulsion")
+    check_keys(section, ("kind", "a", "epsilon", "sigma"), "pair")
+    kind = read_choice(section, "kind", "pair", PAIR_KINDS, "soft_repulsion")
+    if kind == "wca":
+        if "a" in section:
+            raise ValueError("pair.a: belongs to kind 'soft_repulsion'; 'wca' takes epsilon, sigma")
+        positive = {"minimum": 0, "exclusive_minimum": True}
+        return Pair(
+            kind,
+            epsilon=read_number(section, "epsilon", "pair", **positive),
+            sigma=read_number(section, "sigma", "pair", **positive),
+        )
+    misplaced = sorted({"epsilon", "sigma"} & set(section))
+    if misplaced:
+        raise ValueError(f"pair: {misplaced} belong to kind 'wca', not 'soft_repulsion'")
     names = [s.name for s in species]
     n = len(names)
     if "a" not in section:
@@ -548,6 +683,17 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
     return Pair(kind, tuple(tuple(row) for row in matrix))
 
 
+def _wca_cutoff(data: dict, pair: Pair) -> float:
+    """The cut-off of a WCA scene: 2^(1/6) σ; a given `cutoff` must equal it."""
+    wca_range = 2 ** (1 / 6) * pair.sigma
+    if "cutoff" in data and not math.isclose(data["cutoff"], wca_range, rel_tol=1e-9):
+        raise ValueError(
+            f"cutoff = {data['cutoff']!r}: with pair.kind = 'wca' the cut-off is the WCA "
+            f"range 2^(1/6) sigma = {wca_range:.6g}; remove cutoff"
+        )
+    return wca_range
+
+
 BOND_PARAMETERS = {
     "hookean": {"spring_constant": REQUIRED},
     "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
@@ -573,9 +719,10 @@ def _polymer_entries(entries) -> list:
 
 
 def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
-    if entries and solvent.method != "dpd":
+    if entries and solvent.method not in ("dpd", "lattice_boltzmann"):
         raise ValueError(
-            f"polymers: bead-spring chains need solvent.method = 'dpd' (got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd' or "
+            f"'lattice_boltzmann' (got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -633,7 +780,14 @@ def _read_bond(section, path: str, lengths) -> dict:
 def _read_integrator(section, solvent: Solvent) -> Integrator:
     section = section if section is not None else {}
     check_keys(section, ("dt", "lambda"), "integrator")
-    default_dt = 1.0 if solvent.method == "hoogerbrugge_koelman" else 0.04
+    if solvent.method == "lattice_boltzmann" and "lambda" in section:
+        raise ValueError(
+            "integrator.lambda: the beads in a lattice-Boltzmann solvent move by velocity "
+            "Verlet around the friction step (no λ); remove it"
+        )
+    default_dt = {"hoogerbrugge_koelman": 1.0, "lattice_boltzmann": solvent.time_step}.get(
+        solvent.method, 0.04
+    )
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
     return Integrator(dt=dt, lambda_=lam)
@@ -648,11 +802,18 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, lengths, chunk: int) -> Output:
+def _read_output(section, lengths, chunk: int, solvent: Solvent) -> Output:
     check_keys(
         section, ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every"), "output"
     )
-    observables = read_list(section, "observables", "output", ["temperature", "pressure"])
+    lattice = solvent.method == "lattice_boltzmann"
+    default = ["temperature"] if lattice else ["temperature", "pressure"]
+    observables = read_list(section, "observables", "output", default)
+    if lattice and "pressure" in observables:
+        raise ValueError(
+            "output.observables: 'pressure' of a lattice-Boltzmann scene would need the "
+            "fluid's stress, which is not measured; remove it"
+        )
     for name in observables:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")

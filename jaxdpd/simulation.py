@@ -3,7 +3,9 @@
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, without "pressure"
 no virial, without [[polymers]] no bond kernel, and with no pair term at all no
-neighbour search.
+neighbour search.  With solvent.method = "lattice_boltzmann" the particles are beads
+coupled by friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
+(jaxdpd.lattice_boltzmann); with its k_BT = 0 no noise is traced.
 """
 
 import functools
@@ -17,10 +19,12 @@ from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
+from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
+from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.thermo import step_samples
-from jaxdpd.pairs import soft_repulsion_term
+from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
@@ -73,7 +77,9 @@ def pair_terms(scene: Scene, dtype) -> list:
     """The pair laws the scene names, in the order they are summed."""
     terms = []
     solvent = scene.solvent
-    if scene.pair is not None:
+    if scene.pair is not None and scene.pair.kind == "wca":
+        terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
+    elif scene.pair is not None:
         terms.append(soft_repulsion_term(scene.pair.a, dtype))
     if solvent.method == "dpd" and solvent.gamma > 0:
         terms.append(
@@ -167,8 +173,22 @@ def build(scene: Scene) -> Simulation:
             )
         return vectors, virial, pair_list, bits
 
+    fluid = None
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+    elif scene.solvent.method == "lattice_boltzmann":
+        fluid = fluid_parameters(scene)
+        advance = coupled_step(
+            box,
+            scene.integrator.dt,
+            md_steps_per_lattice_step(scene),
+            interactions,
+            fluid,
+            scene.solvent.friction,
+            dtype,
+            masses,
+            scene.solvent.noise,
+        )
     else:
         advance = modified_velocity_verlet(
             box,
@@ -209,9 +229,11 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
         )
-        if scene.solvent.method == "dpd":
+        if scene.solvent.method != "hoogerbrugge_koelman":
             forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
             state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
+        if fluid is not None:
+            state = state.set(solvent_state=initial_fluid_state(fluid, scene.seed, dtype))
         return state
 
     def reallocate(state, minimum):
