@@ -31,6 +31,12 @@ dissipation on the lattice, exact for the linearised dynamics), so that mode k h
 variance μ b_k, the momentum density ρ₀ k_BT/a³ per component (equipartition of
 ρ₀ a³ u²/2 per node) and the density ρ₀ k_BT/(a³ c_s²) (isothermal ideal-fluid
 compressibility).  The amplitude uses the mean density ρ₀ (linearised theory).
+
+The fluid is stored as the deviations f_i − w_i ρ₀ of the populations from the fluid
+at rest (the rest state is invariant under collision and streaming, so the step is
+the same): in float32 the populations themselves (~w_i ρ₀) would round the small
+hydrodynamic signal to ~1e-7 of ρ₀ per step, which biases a shear wave's decay at
+the per-cent level; the deviations keep that relative error at round-off.
 """
 
 from dataclasses import dataclass
@@ -166,21 +172,25 @@ def stress_modes(a, b):
     )
 
 
-def hydrodynamic_fields(populations):
-    """Density ρ (n_x, n_y, n_z) and lattice momentum density j = Σ f_i c_i (3, ...)."""
+def mass_and_momentum(populations):
+    """Σ_i f_i (n_x, n_y, n_z) and the lattice momentum density j = Σ_i f_i c_i (3, ...)
+    of populations or of their deviations (then the first is ρ − ρ₀; j is the same)."""
     basis = jnp.asarray(MODE_BASIS[:4], populations.dtype)
     moments = jnp.tensordot(basis, populations, axes=1)
     return moments[0], moments[1:]
 
 
-def equilibrium_populations(density, velocity):
-    """Second-order equilibrium f_i^eq = w_i ρ [1 + c·u/c_s² + (c·u)²/(2c_s⁴) − u²/(2c_s²)].
+def equilibrium_deviations(density, velocity, rest_density: float):
+    """Deviation of the second-order equilibrium from the rest state w_i ρ₀:
+
+        f_i^eq − w_i ρ₀ = w_i [(ρ − ρ₀) + ρ (c·u/c_s² + (c·u)²/(2c_s⁴) − u²/(2c_s²))].
 
     Args:
         density: ρ (...).
         velocity: (3, ...) in lattice units (a/τ).
+        rest_density: ρ₀.
     Returns:
-        (19, ...) populations.
+        (19, ...) deviations, dtype of `velocity`.
     """
     dtype = velocity.dtype
     c = jnp.asarray(VELOCITIES, dtype)
@@ -188,7 +198,8 @@ def equilibrium_populations(density, velocity):
     cu = jnp.tensordot(c, velocity, axes=1)
     u_sq = jnp.sum(velocity * velocity, axis=0)
     cs2 = SOUND_SPEED_SQ
-    return w * density * (1 + cu / cs2 + cu * cu / (2 * cs2 * cs2) - u_sq / (2 * cs2))
+    flow = cu / cs2 + cu * cu / (2 * cs2 * cs2) - u_sq / (2 * cs2)
+    return w * ((density - rest_density) + density * flow)
 
 
 def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform"):
@@ -200,12 +211,13 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
         noise_law: "uniform" or "gaussian" unit-variance ξ_k (used when k_BT > 0;
             Gaussian variates cost about five times the rest of the step on a CPU).
     Returns:
-        `update(populations, impulse_density, key) -> (populations, velocity)`, pure:
-        populations (19, n_x, n_y, n_z) before collision; impulse_density (3, ...)
+        `update(deviations, impulse_density, key) -> (deviations, density, velocity)`, pure:
+        deviations f_i − w_i ρ₀ (19, n_x, n_y, n_z) before collision; impulse_density (3, ...)
         the momentum per volume given to the fluid over this step (physical units,
         e.g. by the beads' friction), applied as a force density impulse/τ; key the
         uint32 noise key of this LB step (counter_noise.family_key).  Returns the
-        populations after streaming and their physical velocity j a/(ρ τ) (3, ...).
+        deviations after streaming, their density ρ (n_x, n_y, n_z) and physical
+        velocity j a/(ρ τ) (3, ...).
     """
     gammas = parameters.relaxation_eigenvalues
     stress_gammas = jnp.asarray(gammas[4:10], dtype).reshape(6, 1, 1, 1)
@@ -219,9 +231,11 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
         amplitudes = jnp.asarray(amplitude, dtype).reshape(-1, 1, 1, 1)
         draw = counter_noise.NOISE_LAWS[noise_law]
 
-    def update(populations, impulse_density, key):
-        m = modes(populations)
-        density, momentum = m[0], m[1:4]
+    rest_density = jnp.asarray(parameters.density, dtype)
+
+    def update(deviations, impulse_density, key):
+        m = modes(deviations)
+        density, momentum = rest_density + m[0], m[1:4]
         impulse = (impulse_to_lattice * impulse_density).astype(dtype)
         velocity = (momentum + 0.5 * impulse) / density
         equilibrium = density * stress_modes(velocity, velocity)
@@ -230,23 +244,22 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
             + stress_gammas * (m[4:10] - equilibrium)
             + (1 + stress_gammas) * stress_modes(velocity, impulse)
         )
-        relaxed = [density[None], momentum + impulse, stress, jnp.zeros_like(m[10:])]
+        relaxed = [m[:1], momentum + impulse, stress, jnp.zeros_like(m[10:])]
         relaxed = jnp.concatenate(relaxed)
         if thermal:
             xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape(m[4:].shape)
             relaxed = relaxed.at[4:].add(amplitudes * xi)
         streamed = stream(populations_from_modes(relaxed))
-        new_density, new_momentum = hydrodynamic_fields(streamed)
-        new_velocity = speed * new_momentum / new_density
-        return streamed, new_velocity
+        new_mass, new_momentum = mass_and_momentum(streamed)
+        new_density = rest_density + new_mass
+        return streamed, new_density, speed * new_momentum / new_density
 
     return update
 
 
-def thermal_populations(parameters: FluidParameters, rng, dtype) -> np.ndarray:
-    """Populations of a fluid at rest drawn from its equilibrium distribution.
-
-    f_i = w_i ρ₀ + √(μ w_i) ξ_i with the per-population lattice mean of ξ removed, so
+def thermal_deviations(parameters: FluidParameters, rng, dtype) -> np.ndarray:
+    """Deviations f_i − w_i ρ₀ of a fluid at rest drawn from its equilibrium
+    distribution: √(μ w_i) ξ_i with the per-population lattice mean of ξ removed, so
     the total mass is exactly N_nodes ρ₀ a³ and the total momentum exactly zero.
 
     Args:
@@ -257,10 +270,9 @@ def thermal_populations(parameters: FluidParameters, rng, dtype) -> np.ndarray:
         (19, n_x, n_y, n_z) NumPy array.
     """
     shape = (N_VELOCITIES, *parameters.nodes)
+    if parameters.kT == 0:
+        return np.zeros(shape, dtype)
+    xi = rng.normal(size=shape)
+    xi -= xi.mean(axis=(1, 2, 3), keepdims=True)
     w = WEIGHTS.reshape(-1, 1, 1, 1)
-    populations = np.broadcast_to(w * parameters.density, shape).copy()
-    if parameters.kT > 0:
-        xi = rng.normal(size=shape)
-        xi -= xi.mean(axis=(1, 2, 3), keepdims=True)
-        populations += np.sqrt(parameters.population_variance * w) * xi
-    return populations.astype(dtype)
+    return (np.sqrt(parameters.population_variance * w) * xi).astype(dtype)

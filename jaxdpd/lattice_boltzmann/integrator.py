@@ -38,9 +38,9 @@ from jaxdpd.lattice_boltzmann.coupling import (
 )
 from jaxdpd.lattice_boltzmann.fluid import (
     FluidParameters,
-    hydrodynamic_fields,
     lattice_update,
-    thermal_populations,
+    mass_and_momentum,
+    thermal_deviations,
 )
 from jaxdpd.lattice_boltzmann.state import FluidState
 
@@ -49,16 +49,16 @@ def initial_fluid_state(fluid: FluidParameters, seed: int, dtype) -> FluidState:
     """A fluid at rest in thermal equilibrium (host-side draw; seeded by `seed`, in a
     NumPy stream separate from the particle placement's)."""
     rng = np.random.default_rng([seed, 0x4C42])
-    populations = jnp.asarray(thermal_populations(fluid, rng, dtype))
-    density, momentum = hydrodynamic_fields(populations)
-    velocity = jnp.asarray(fluid.lattice_speed, dtype) * momentum / density
-    return FluidState(populations, velocity, jnp.zeros_like(velocity))
+    deviations = jnp.asarray(thermal_deviations(fluid, rng, dtype))
+    mass, momentum = mass_and_momentum(deviations)
+    velocity = jnp.asarray(fluid.lattice_speed, dtype) * momentum / (fluid.density + mass)
+    return FluidState(deviations, velocity, jnp.zeros_like(velocity))
 
 
 def fluid_momentum(fluid: FluidParameters, state: FluidState):
     """Total momentum of the fluid, counting the impulse not yet applied (3,):
     a³ Σ_r (j(r) a/τ + impulse(r))."""
-    _, momentum = hydrodynamic_fields(state.populations)
+    _, momentum = mass_and_momentum(state.deviations)
     volume = fluid.grid_spacing**3
     per_node = fluid.lattice_speed * momentum + state.impulse
     return volume * jnp.sum(per_node.reshape(3, -1), axis=1)
@@ -127,10 +127,10 @@ def coupled_step(
     def lattice_step(solvent, seed, lb_step):
         key = counter_noise.family_key(seed, lb_step, counter_noise.LATTICE_SALT)
         impulse = solvent.impulse if body_impulse is None else solvent.impulse + body_impulse
-        populations, velocity = update_fluid(solvent.populations, impulse, key)
-        healthy = jnp.all(hydrodynamic_fields(populations)[0] > 0) & jnp.all(jnp.isfinite(velocity))
+        deviations, density, velocity = update_fluid(solvent.deviations, impulse, key)
+        healthy = jnp.all(density > 0) & jnp.all(jnp.isfinite(velocity))
         bits = jnp.where(healthy, 0, errors.FLUID_INVALID).astype(jnp.int32)
-        return FluidState(populations, velocity, jnp.zeros_like(solvent.impulse)), bits
+        return FluidState(deviations, velocity, jnp.zeros_like(solvent.impulse)), bits
 
     def step(state):
         solvent = state.solvent_state
@@ -159,7 +159,7 @@ def coupled_step(
         advanced = state.set(positions=positions, image=image, step=new_step)
         forces, virial, pair_list, bits = forces_at(positions, coupled, advanced)
         velocities = coupled + half * forces / bead_mass
-        solvent = FluidState(solvent.populations, solvent.velocity, impulse_field)
+        solvent = FluidState(solvent.deviations, solvent.velocity, impulse_field)
         if substeps == 1:
             solvent, fluid_bits = lattice_step(solvent, state.seed, new_step)
         else:

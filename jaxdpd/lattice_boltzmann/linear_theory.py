@@ -106,15 +106,13 @@ def point_force_response(fluid: FluidParameters) -> np.ndarray:
     # Unit force at node 0 over one LB step: lattice impulse density g = F τ²/a⁴
     # (momentum density τ F/a³ in lattice velocity units), Fourier amplitude g/N.
     impulse = fluid.time_step**2 / fluid.grid_spacing**4 / n_nodes
-    response = np.zeros((3, 3, k.shape[0]), complex)
     nonzero = np.any(k != 0, axis=1)
-    for beta in range(3):
-        source = INVERSE_MODE_BASIS[:, 1 + beta] * impulse  # E⁻¹ ĝ for g ∥ β
-        rhs = phases[nonzero] * source[None, :]
-        f_hat = np.linalg.solve(system[nonzero], rhs[..., None])[..., 0]
-        momentum = f_hat @ VELOCITIES.astype(float)  # (K', 3) lattice j
-        velocity = momentum * fluid.lattice_speed / fluid.density
-        response[:, beta, nonzero] = velocity.T
+    sources = INVERSE_MODE_BASIS[:, 1:4] * impulse  # E⁻¹ ĝ for g along x, y, z
+    rhs = phases[nonzero][:, :, None] * sources[None]
+    f_hat = np.linalg.solve(system[nonzero], rhs)  # (K', 19, 3)
+    momentum = np.einsum("kib,ia->abk", f_hat, VELOCITIES.astype(float))  # lattice j
+    response = np.zeros((3, 3, k.shape[0]), complex)
+    response[:, :, nonzero] = momentum * fluid.lattice_speed / fluid.density
     fields = response.reshape(3, 3, *nodes)
     return np.real(np.fft.ifftn(fields, axes=(2, 3, 4)) * n_nodes)
 

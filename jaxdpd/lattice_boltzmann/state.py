@@ -9,14 +9,14 @@ class FluidState:
     """A lattice-Boltzmann fluid between two LB steps.
 
     Attributes:
-        populations: (19, n_x, n_y, n_z) populations f_i (mass densities) before the
-            next collision.
+        deviations: (19, n_x, n_y, n_z) populations minus the rest state, f_i − w_i ρ₀
+            (mass densities), before the next collision.
         velocity: (3, n_x, n_y, n_z) fluid velocity at the nodes (physical units),
             the one particles see until the next LB step.
         impulse: (3, n_x, n_y, n_z) momentum per volume given to the fluid by the
             particles since the last LB step (applied and reset by the next one).
     """
 
-    populations: jnp.ndarray
+    deviations: jnp.ndarray
     velocity: jnp.ndarray
     impulse: jnp.ndarray
