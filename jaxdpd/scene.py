@@ -38,7 +38,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 wca_sigma = 1); dpd and lattice_boltzmann solvents
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
                 lattice_boltzmann); lambda in [0, 1] (dpd only)
-    [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
+    [neighbors] method = "cell_list" | "jax_md" | "all_pairs" (every pair, fixed: for
+                small systems such as one chain); format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
@@ -76,7 +77,7 @@ PAIR_KINDS = ("soft_repulsion", "wca")
 MAX_THERMAL_MACH_NUMBER_SQ = 0.1
 NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
-NEIGHBOR_METHODS = ("cell_list", "jax_md")
+NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
 OBSERVABLES = ("temperature", "pressure", "rdf", "conformation")
 
@@ -367,6 +368,8 @@ class Scene:
             del data["polymers"]
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
+        if self.neighbors.method == "all_pairs":
+            del data["neighbors"]["skin"]
         data["output"]["observables"] = list(self.output.observables)
         if self.output.path is None:
             del data["output"]["path"]
@@ -519,8 +522,10 @@ def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
 def _read_neighbors(section) -> Neighbors:
     check_keys(section, ("method", "format", "skin", "capacity_multiplier"), "neighbors")
     method = read_choice(section, "method", "neighbors", NEIGHBOR_METHODS, "cell_list")
-    if method == "cell_list" and "format" in section:
+    if method != "jax_md" and "format" in section:
         raise ValueError("neighbors.format: only used with neighbors.method = 'jax_md'")
+    if method == "all_pairs" and "skin" in section:
+        raise ValueError("neighbors.skin: the all_pairs list is never rebuilt; remove skin")
     return Neighbors(
         method=method,
         format=read_choice(section, "format", "neighbors", JAX_MD_FORMATS, "ordered_sparse"),

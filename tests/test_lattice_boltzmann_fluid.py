@@ -101,16 +101,24 @@ def _wave(fluid: FluidParameters, dtype, steps: int, component: int, amplitude: 
     return series, 2 * np.pi / (n * fluid.grid_spacing)
 
 
+# Physical units of the seed (a = 0.5, τ = 0.02: ν* = ν τ/a² = 0.224), and a bulk
+# viscosity 3ν so that the sound test tells it from the shear viscosity; the shear and
+# sound tests share this fluid (one compiled runner per dtype).
+WAVE_FLUID = FluidParameters((1, 64, 1), 0.5, 0.02, 0.864, 2.8, 3 * 2.8, 0.0)
 SHEAR_FLUIDS = [
-    # (grid spacing a, LB step τ, ν, nodes per wavelength): ν* = ν τ/a² = 0.224, 1.0
-    pytest.param(0.5, 0.02, 2.8, 64, "float64", id="nu*=0.224-float64"),
-    pytest.param(0.5, 0.02, 2.8, 64, "float32", id="nu*=0.224-float32"),
-    pytest.param(1.0, 1.0, 1.0, 128, "float64", id="nu*=1-float64"),
+    pytest.param(WAVE_FLUID, "float64", id="nu*=0.224-float64"),
+    pytest.param(WAVE_FLUID, "float32", id="nu*=0.224-float32"),
+    pytest.param(
+        FluidParameters((1, 128, 1), 1.0, 1.0, 0.864, 1.0, 1.0, 0.0),
+        "float64",
+        id="nu*=1-float64",
+        marks=pytest.mark.slow,
+    ),
 ]
 
 
-@pytest.mark.parametrize(("a", "tau", "nu", "nodes", "precision"), SHEAR_FLUIDS)
-def test_shear_wave_decays_at_the_input_viscosity(a, tau, nu, nodes, precision):
+@pytest.mark.parametrize(("fluid", "precision"), SHEAR_FLUIDS)
+def test_shear_wave_decays_at_the_input_viscosity(fluid, precision):
     """A transverse wave u_x = U sin(k y) decays as exp(−ν k² t) (linearised
     Navier–Stokes; the seed's eq. 3 maps ν to the shear eigenvalue).  The D3Q19
     dispersion differs from ν k² by O((k a)²) with a coefficient that grows with the
@@ -120,9 +128,9 @@ def test_shear_wave_decays_at_the_input_viscosity(a, tau, nu, nodes, precision):
     stepping must also reproduce that exact lattice rate: to 1e-6 in float64 (the fit
     of an exact exponential), 1e-4 in float32 (round-off of ~1e-7 of the deviations
     per step, accumulated over the run)."""
-    fluid = FluidParameters((1, nodes, 1), a, tau, 0.864, nu, nu, 0.0)
     dtype = jnp.dtype(precision)
     steps = 1200
+    a, tau, nu = fluid.grid_spacing, fluid.time_step, fluid.kinematic_viscosity
     series, k = _wave(fluid, dtype, steps, component=0, amplitude=1e-3 * fluid.lattice_speed)
     times = tau * np.arange(1, steps + 1)
     keep = slice(50, None)  # the stress modes settle within a few steps
@@ -140,28 +148,34 @@ def test_sound_wave_damping_gives_the_bulk_viscosity():
     amplitude decays at Γ = (2ν/3 + ν_b/2) k² (linearised compressible Navier–Stokes
     with the isothermal c_s² = a²/(3τ²); Landau & Lifshitz, Fluid Mechanics §79), here
     with ν_b = 3ν to distinguish the bulk from the shear eigenvalue.  The exact
-    lattice values (linear_theory) differ from these by < 2e-3 on 64 nodes; the fit
-    of a damped cosine to an exact lattice signal adds ≪ 1e-3.  Tolerance 1 %."""
-    a, tau, nu = 1.0, 1.0, 0.1
-    fluid = FluidParameters((1, 64, 1), a, tau, 1.0, nu, 3 * nu, 0.0)
+    lattice rate (linear_theory) differs from Γ by 3e-4 here; the lattice frequency
+    lies 1.07 % above the continuum one (sound dispersion of the lattice at
+    ν_b τ/a² = 0.67, k a = 0.098).  Tolerances: rate 1 %, frequency 2 %, and both
+    within 1e-3 of the exact lattice values (the fit of a damped cosine to an exact
+    lattice signal)."""
+    fluid = WAVE_FLUID
+    a, tau, nu = fluid.grid_spacing, fluid.time_step, fluid.kinematic_viscosity
     steps = 1200
-    series, k = _wave(fluid, jnp.float64, steps, component=1, amplitude=1e-4)
+    amplitude = 1e-3 * fluid.lattice_speed
+    series, k = _wave(fluid, jnp.float64, steps, component=1, amplitude=amplitude)
     times = tau * np.arange(1, steps + 1)
 
     def damped(t, amplitude, rate, frequency, phase):
         return amplitude * np.exp(-rate * t) * np.cos(frequency * t + phase)
 
     sound_speed = np.sqrt(SOUND_SPEED_SQ) * a / tau
-    start = [1e-4, 1e-3, sound_speed * k, 0.0]
-    (_, rate, frequency, _), _ = curve_fit(damped, times, series, p0=start)
+    start = [amplitude, (2 * nu / 3 + 3 * nu / 2) * k**2, sound_speed * k, 0.0]
+    keep = slice(50, None)  # the non-hydrodynamic modes die out within a few steps
+    (_, rate, frequency, _), _ = curve_fit(damped, times[keep], series[keep], p0=start)
     expected_rate = (2 * nu / 3 + 3 * nu / 2) * k**2
     assert abs(rate / expected_rate - 1) < 0.01, (rate, expected_rate)
     expected_frequency = np.sqrt((sound_speed * k) ** 2 - expected_rate**2)
-    assert abs(frequency / expected_frequency - 1) < 0.01, (frequency, expected_frequency)
+    assert abs(frequency / expected_frequency - 1) < 0.02, (frequency, expected_frequency)
     lattice = linear_theory.decay_rates(fluid, [0.0, k * a, 0.0])
     sound = lattice[np.argmax(np.abs(lattice.imag) > 1e-9)]
-    assert abs(sound.real / expected_rate - 1) < 2e-3
+    assert abs(sound.real / expected_rate - 1) < 1e-3
     assert abs(rate / sound.real - 1) < 1e-3
+    assert abs(frequency / abs(sound.imag) - 1) < 1e-3
 
 
 @functools.cache
@@ -185,7 +199,8 @@ def _fluctuation_runner(fluid: FluidParameters, dtype, noise_law: str, steps: in
 
 
 @pytest.mark.parametrize(
-    ("precision", "noise_law"), [("float64", "uniform"), ("float32", "gaussian")]
+    ("precision", "noise_law"),
+    [("float64", "uniform"), pytest.param("float32", "gaussian", marks=pytest.mark.slow)],
 )
 def test_fluid_modes_obey_equipartition(precision, noise_law):
     """Fluctuation–dissipation on the lattice (Dünweg, Schiller & Ladd, Phys. Rev. E

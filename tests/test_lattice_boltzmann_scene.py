@@ -4,6 +4,7 @@ round trip, and the WCA force law."""
 import copy
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -119,19 +120,18 @@ def test_wca_law_is_minus_the_derivative_of_its_energy_and_vanishes_at_its_range
     differences (step 1e-6, error O(1e-12) relative), U and F zero at and beyond
     r = 2^(1/6) σ, U(r → 2^(1/6)σ) → 0 continuously."""
     epsilon, sigma = 1.3, 0.9
+    energy = jax.jit(lambda q_sq: wca_energy(q_sq, epsilon, sigma))
     r = np.linspace(0.8, 1.3, 101) * sigma
     h = 1e-6
-    derivative = (
-        wca_energy((r + h) ** 2, epsilon, sigma) - wca_energy((r - h) ** 2, epsilon, sigma)
-    ) / (2 * h)
-    force = r * wca_force_over_distance(r**2, epsilon, sigma)
+    derivative = (np.asarray(energy((r + h) ** 2)) - np.asarray(energy((r - h) ** 2))) / (2 * h)
+    force = r * np.asarray(jax.jit(wca_force_over_distance)(r**2, epsilon, sigma))
     inside = r < WCA_RANGE_FACTOR * sigma - 2 * h
     np.testing.assert_allclose(force[inside], -derivative[inside], rtol=1e-6)
     outside = r >= WCA_RANGE_FACTOR * sigma
-    assert np.all(force[outside] == 0) and np.all(wca_energy(r[outside] ** 2, epsilon, sigma) == 0)
+    assert np.all(force[outside] == 0) and np.all(np.asarray(energy(r[outside] ** 2)) == 0)
     edge = (WCA_RANGE_FACTOR * sigma * (1 - 1e-9)) ** 2
-    assert abs(float(wca_energy(edge, epsilon, sigma))) < 1e-7 * epsilon
-    assert float(wca_energy(sigma**2, epsilon, sigma)) == pytest.approx(epsilon)
+    assert abs(float(energy(np.array([edge]))[0])) < 1e-7 * epsilon
+    assert float(energy(np.array([sigma**2]))[0]) == pytest.approx(epsilon)
 
 
 def test_wca_pair_term_matches_brute_force_forces():
@@ -153,14 +153,23 @@ def test_wca_pair_term_matches_brute_force_forces():
         jnp.asarray(False),
         zero,
     )
-    geometry = pair_geometry(box, jnp.asarray(positions), pairs, cutoff, True)
-    magnitude = wca_term(1.0, 1.0, jnp.float64)(geometry, None)
-    forces, _ = accumulate(geometry, magnitude)
+    term = wca_term(1.0, 1.0, jnp.float64)
+
+    @jax.jit
+    def pair_forces(positions):
+        geometry = pair_geometry(box, positions, pairs, cutoff, True)
+        return accumulate(geometry, term(geometry, None))[0]
+
+    forces = pair_forces(jnp.asarray(positions))
     expected = np.zeros((12, 3))
     for a, b in zip(i, j, strict=True):
         d = positions[a] - positions[b]
         d -= 4.0 * np.round(d / 4.0)
-        f = d * float(wca_force_over_distance(d @ d, 1.0, 1.0))
+        distance = np.sqrt(d @ d)
+        if distance < cutoff:  # −dU/dr along d, U = 4[(1/r)¹² − (1/r)⁶ + ¼]
+            f = d / distance * 24 * (2 / distance**13 - 1 / distance**7)
+        else:
+            f = np.zeros(3)
         expected[a] += f
         expected[b] -= f
     largest = np.abs(expected).max()

@@ -28,14 +28,13 @@ impulse/ρ₀), so the fluid responds at once; the LB step then carries that mom
 on (jaxdpd.lattice_boltzmann.fluid).
 """
 
-from dataclasses import dataclass
-
 import jax.numpy as jnp
+from jax_md import dataclasses as jmd_dataclasses
 
 _CORNERS = jnp.asarray([[dx, dy, dz] for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)], jnp.int32)
 
 
-@dataclass(frozen=True)
+@jmd_dataclasses.dataclass
 class Stencil:
     """The 8 nodes around each bead and their trilinear weights.
 

@@ -131,13 +131,13 @@ class FluidParameters:
 def modes(populations):
     """m = E f over the leading axis: (19, ...) → (19, ...)."""
     basis = jnp.asarray(MODE_BASIS, populations.dtype)
-    return jnp.tensordot(basis, populations, axes=1)
+    return jnp.einsum("ki,i...->k...", basis, populations)
 
 
 def populations_from_modes(mode_values):
     """f = E⁻¹ m over the leading axis: (19, ...) → (19, ...)."""
     inverse = jnp.asarray(INVERSE_MODE_BASIS, mode_values.dtype)
-    return jnp.tensordot(inverse, mode_values, axes=1)
+    return jnp.einsum("ik,k...->i...", inverse, mode_values)
 
 
 def stream(populations):
@@ -176,7 +176,7 @@ def mass_and_momentum(populations):
     """Σ_i f_i (n_x, n_y, n_z) and the lattice momentum density j = Σ_i f_i c_i (3, ...)
     of populations or of their deviations (then the first is ρ − ρ₀; j is the same)."""
     basis = jnp.asarray(MODE_BASIS[:4], populations.dtype)
-    moments = jnp.tensordot(basis, populations, axes=1)
+    moments = jnp.einsum("ki,i...->k...", basis, populations)
     return moments[0], moments[1:]
 
 

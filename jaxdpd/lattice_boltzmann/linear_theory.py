@@ -21,7 +21,9 @@ this 19 × 19 propagator follow, with no time stepping (Lallemand and Luo, Phys.
   eqs. 17–20): 1/ζ_eff = 1/ζ_bare + μ_lattice.  μ_lattice includes the finite periodic
   box exactly (the k = 0 force is removed, i.e. a uniform counter force holds the
   total momentum at zero, as in Hasimoto, J. Fluid Mech. 5, 317 (1959)); for large
-  boxes μ_lattice → 1/(g η a) − HASIMOTO_CONSTANT/(6π η L) (seed eqs. 19, 31).
+  boxes μ_lattice → 1/(g η a) − HASIMOTO_CONSTANT/(6π η L) (seed eqs. 19, 31; the
+  mobility of a sphere in a simple cubic array of period L is (1/(6πηR))(1 −
+  HASIMOTO_CONSTANT R/L + O(R³/L³))).
 
 Host-side NumPy (complex128), for predictions and tests.
 """
@@ -34,10 +36,17 @@ from jaxdpd.lattice_boltzmann.lattice import (
     MODE_BASIS,
     VELOCITIES,
 )
+from jaxdpd.observables.periodic_hydrodynamics import HASIMOTO_CONSTANT
 
-# Hasimoto (1959): the mobility of a sphere in a simple cubic periodic array of
-# period L is (1/(6πηR)) (1 − HASIMOTO_CONSTANT R/L + O(R³/L³)).
-HASIMOTO_CONSTANT = 2.837297
+__all__ = [
+    "HASIMOTO_CONSTANT",
+    "decay_rates",
+    "friction_mobility",
+    "point_force_response",
+    "point_particle_mobility",
+    "propagator",
+    "transverse_wave_decay_rate",
+]
 
 
 def lattice_wave_vectors(nodes) -> np.ndarray:
