@@ -10,9 +10,9 @@ jitted scan of `x + 1` over an array of the population's size (read + write), so
 MLUPS_bound = B / (44 · bytes per value) and the ratio MLUPS / MLUPS_bound is what
 the machine's load does not change much.
 
-Beads: one Kremer–Grest chain of N = 30 in a box of 18³ nodes with the parameters of
-Ahlrichs & Dünweg (1999, Table I: τ = 0.05, Δt = 0.01), all-pairs WCA list; MD steps/s
-and bead-steps/s, compilation excluded.
+Beads: the packaged scene jaxdpd/scenes/lb_chain.toml, one Kremer–Grest chain of
+N = 30 in 18³ nodes with the parameters of Ahlrichs & Dünweg (1999, Table I: τ = 0.05,
+Δt = 0.01), all-pairs WCA list; MD steps/s and bead-steps/s, compilation excluded.
 
 Usage:
     python benchmarks/lattice_boltzmann_throughput.py [--sizes 32 64] [--steps 50]
@@ -22,6 +22,7 @@ Writes benchmarks/results/lattice_boltzmann_throughput.json.
 
 import argparse
 import time
+from importlib import resources
 
 import jax
 import jax.numpy as jnp
@@ -35,6 +36,7 @@ from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
 
 VALUES_PER_UPDATE = 19 + 19 + 3 + 3
+CHAIN_SCENE = resources.files("jaxdpd.scenes").joinpath("lb_chain.toml")
 
 
 def copy_bandwidth(shape, dtype, steps: int) -> float:
@@ -82,34 +84,7 @@ def lattice_rate(n: int, precision: str, noise: str, steps: int) -> dict:
 
 
 def chain_rate(precision: str, steps: int) -> dict:
-    scene = Scene.from_dict(
-        {
-            "seed": 1,
-            "precision": precision,
-            "box": {"lengths": [18.0, 18.0, 18.0]},
-            "particles": {"count": 30, "species": [{"name": "M"}]},
-            "solvent": {
-                "method": "lattice_boltzmann",
-                "kT": 1.2,
-                "grid_spacing": 1.0,
-                "time_step": 0.05,
-                "mass_density": 0.864,
-                "kinematic_viscosity": 2.8,
-                "friction": 20.8,
-            },
-            "pair": {"kind": "wca", "epsilon": 1.0, "sigma": 1.0},
-            "polymers": [
-                {
-                    "species": "M",
-                    "beads": 30,
-                    "bond": {"law": "fene_log_wca", "spring_constant": 7.0, "max_extension": 2.0},
-                }
-            ],
-            "integrator": {"dt": 0.01},
-            "neighbors": {"method": "all_pairs"},
-            "output": {"observables": []},
-        }
-    )
+    scene = Scene.from_toml(CHAIN_SCENE).replace(precision=precision, output={"observables": []})
     simulation = build(scene)
     state = simulation.init_fn()
     start = time.perf_counter()

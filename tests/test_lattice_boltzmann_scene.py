@@ -8,38 +8,27 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from lattice_boltzmann_scenes import LB_CHAIN, lb_chain_scene
 
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
-from jaxdpd.neighbors import PairList
+from jaxdpd.neighbors import PairList, neighbor_search
 from jaxdpd.pairs import WCA_RANGE_FACTOR, wca_energy, wca_force_over_distance, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry
+from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
+from jaxdpd.topology import chain_blocks
 
-LATTICE_SCENE = {
-    "seed": 1,
-    "precision": "float64",
-    "box": {"lengths": [6.0, 6.0, 9.0]},
-    "particles": {"count": 20, "species": [{"name": "M"}]},
-    "solvent": {
-        "method": "lattice_boltzmann",
-        "kT": 1.2,
-        "grid_spacing": 1.5,
-        "time_step": 0.05,
-        "mass_density": 0.864,
-        "kinematic_viscosity": 2.8,
-        "friction": 20.8,
-    },
-    "pair": {"kind": "wca", "epsilon": 1.0, "sigma": 1.0},
-    "polymers": [
-        {
-            "species": "M",
-            "beads": 10,
-            "bond": {"law": "fene_log_wca", "spring_constant": 7.0, "max_extension": 2.0},
-        }
-    ],
-    "integrator": {"dt": 0.01},
-}
+LATTICE_SCENE = lb_chain_scene(
+    precision="float64",
+    box={"lengths": [6.0, 6.0, 9.0]},
+    particles={"count": 20, "species": [{"name": "M"}]},
+    polymers=[{**LB_CHAIN["polymers"][0], "species": "M", "beads": 10}],
+    neighbors=None,
+    run=None,
+    output=None,
+)
+LATTICE_SCENE["solvent"].update(grid_spacing=1.5, friction=20.8)
 
 
 SOLVENT_KEYS = {*LATTICE_SCENE["solvent"], "kinematic_bulk_viscosity", "noise", "gamma"}
@@ -176,3 +165,37 @@ def test_wca_pair_term_matches_brute_force_forces():
     assert largest > 1.0
     np.testing.assert_allclose(np.asarray(forces), expected, rtol=1e-12, atol=1e-14 * largest)
     np.testing.assert_allclose(np.asarray(forces).sum(axis=0), 0, atol=1e-14 * largest)
+
+
+def test_wca_chains_start_without_overlaps_and_all_pairs_lists_every_pair():
+    """With a WCA pair the placement grows chains as self-avoiding walks: no two
+    non-bonded beads closer than σ (minimum image), bonds at the FENE–WCA minimum;
+    the all_pairs neighbour list holds each of the N(N−1)/2 pairs once."""
+    scene = Scene.from_dict(
+        lattice_scene(
+            particles={"count": 60, "species": [{"name": "M"}]},
+            neighbors={"method": "all_pairs"},
+        )
+    )
+    box = PeriodicBox(scene.box.lengths)
+    blocks = chain_blocks(scene)
+    positions, _, _, _ = initial_configuration(scene, box, jnp.float64, blocks)
+    positions = np.asarray(positions)
+    lengths = np.asarray(scene.box.lengths)
+    separation = positions[:, None] - positions[None]
+    separation -= lengths * np.round(separation / lengths)
+    distance = np.linalg.norm(separation, axis=-1)
+    bonded = np.zeros_like(distance, bool)
+    for chain in range(6):
+        k = chain * 10 + np.arange(9)
+        bonded[k, k + 1] = bonded[k + 1, k] = True
+    others = ~bonded & ~np.eye(60, dtype=bool)
+    assert distance[others].min() >= 1.0 - 1e-6
+    bond_length = blocks[0].law.placement_length  # 1.042 for k = 7, R0 = 2
+    np.testing.assert_allclose(distance[bonded], bond_length, rtol=1e-6)
+    search = neighbor_search(box, 60, scene.cutoff, 0.0, "all_pairs")
+    pairs = search.allocate(jnp.asarray(positions))
+    assert pairs.capacity == 60 * 59 // 2
+    assert len({(int(i), int(j)) for i, j in zip(pairs.i, pairs.j, strict=True)}) == 1770
+    with pytest.raises(ValueError, match="neighbors.skin"):
+        Scene.from_dict(lattice_scene(neighbors={"method": "all_pairs", "skin": 0.3}))
