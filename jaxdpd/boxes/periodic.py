@@ -59,8 +59,14 @@ class PeriodicBox:
         lengths = self.lengths_array(positions.dtype)
         crossings = jnp.floor(positions / lengths)
         wrapped = positions - crossings * lengths
-        # Round-off can leave a coordinate exactly at L: fold it back to 0.
-        wrapped = jnp.where(wrapped >= lengths, wrapped - lengths, wrapped)
+        # Round-off can leave a coordinate just below 0 (r/L rounded up to an integer)
+        # or at L (−tiny + L rounds to L): fold it into [0, L) and count the fold in
+        # the image, so that r + image · L stays the unwrapped position.
+        below = wrapped < 0
+        wrapped = jnp.where(below, wrapped + lengths, wrapped)
+        above = wrapped >= lengths
+        wrapped = jnp.where(above, wrapped - lengths, wrapped)
+        crossings = crossings - below + above
         return wrapped, image + crossings.astype(image.dtype)
 
     def unwrap(self, positions, image):
