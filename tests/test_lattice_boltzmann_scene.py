@@ -13,6 +13,7 @@ from lattice_boltzmann_scenes import LB_CHAIN, lb_chain_scene
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
 from jaxdpd.neighbors import PairList, neighbor_search
+from jaxdpd.observables.thermo import temperature
 from jaxdpd.pairs import WCA_RANGE_FACTOR, wca_energy, wca_force_over_distance, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry
 from jaxdpd.placement import initial_configuration
@@ -199,3 +200,12 @@ def test_wca_chains_start_without_overlaps_and_all_pairs_lists_every_pair():
     assert len({(int(i), int(j)) for i, j in zip(pairs.i, pairs.j, strict=True)}) == 1770
     with pytest.raises(ValueError, match="neighbors.skin"):
         Scene.from_dict(lattice_scene(neighbors={"method": "all_pairs", "skin": 0.3}))
+
+
+def test_bead_temperature_counts_3n_degrees_of_freedom():
+    """Beads exchange momentum with the fluid, so their total momentum is not fixed:
+    the kinetic temperature of N beads is Σ m v²/(3N), not /(3N − 3)."""
+    kinetic = np.eye(3)[None] * np.array([4.0])[:, None, None]  # tr = 12
+    particles = temperature(kinetic, 2, momentum_conserved=True)
+    beads = temperature(kinetic, 2, momentum_conserved=False)
+    assert particles[0] == pytest.approx(4.0) and beads[0] == pytest.approx(2.0)

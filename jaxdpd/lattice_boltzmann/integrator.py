@@ -20,6 +20,11 @@ momentum, plus fluid momentum, plus the momentum waiting in the impulse field is
 conserved to round-off at every step; for beads without conservative forces the
 step leaves the joint Maxwell–Boltzmann distribution of beads and fluid invariant
 at linear order (no Δt or τ error in ⟨V²⟩).
+
+The LB step is a `lax.cond` on the step counter (none for n = 1).  Under `jax.vmap`
+a batched counter turns it into a select that computes the LB step at every MD step;
+replicas that share the counter (vmap with in_axes None for `step` and `time`) keep
+the branch.
 """
 
 import jax
