@@ -209,7 +209,8 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
         parameters: the fluid.
         dtype: floating dtype of the populations.
         noise_law: "uniform" or "gaussian" unit-variance ξ_k (used when k_BT > 0;
-            Gaussian variates cost about five times the rest of the step on a CPU).
+            Gaussian variates make the step several times slower on a CPU,
+            benchmarks/lattice_boltzmann_throughput.py).
     Returns:
         `update(deviations, impulse_density, key) -> (deviations, density, velocity)`, pure:
         deviations f_i − w_i ρ₀ (19, n_x, n_y, n_z) before collision; impulse_density (3, ...)
