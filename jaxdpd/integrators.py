@@ -8,7 +8,7 @@ error bits of its own (e.g. an overstretched spring).
 
 import jax.numpy as jnp
 
-from jaxdpd import errors
+from jaxdpd import errors, flows
 
 
 def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
@@ -47,6 +47,11 @@ def modified_velocity_verlet(
     DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.  `kT` is the
     temperature scale of the runaway check (see jaxdpd.errors).  `masses` is the
     (N,) array of particle masses, or None for unit masses (no division traced).
+
+    In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
+    terms of jaxdpd.flows are added: streaming in the position update, −L c in
+    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update;
+    the box state advances with the step.  A box at rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
@@ -55,13 +60,30 @@ def modified_velocity_verlet(
         return forces if masses is None else forces / masses[:, None]
 
     def step(state):
+        bound = box.bind(state.box_state)
         accelerations = acceleration(state.forces)
-        moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * accelerations
-        positions, image = box.wrap(moved, state.image)
-        predicted = state.velocities + (lam * dt_) * accelerations
-        advanced = state.set(positions=positions, image=image, step=state.step + 1)
+        displacement_acceleration = accelerations
+        curvature = flows.streaming_curvature(bound, state.positions)
+        if curvature is not None:
+            displacement_acceleration = accelerations + curvature
+        drift = flows.drift_velocity(bound, state.positions, state.velocities)
+        moved = state.positions + dt_ * drift + (0.5 * dt_ * dt_) * displacement_acceleration
+        box_state = box.advance(state.box_state, state.time, dt_)
+        new_bound = box.bind(box_state)
+        positions, image = new_bound.wrap(moved, state.image)
+        rate_of_change = accelerations
+        drag = flows.sllod_drag(bound, state.velocities)
+        if drag is not None:
+            rate_of_change = accelerations + drag
+        predicted = state.velocities + (lam * dt_) * rate_of_change
+        advanced = state.set(
+            positions=positions, image=image, box_state=box_state, step=state.step + 1
+        )
         new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
-        velocities = state.velocities + (0.5 * dt_) * (accelerations + acceleration(new_forces))
+        right_hand_side = state.velocities + (0.5 * dt_) * (
+            rate_of_change + acceleration(new_forces)
+        )
+        velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
@@ -75,12 +97,13 @@ def modified_velocity_verlet(
 
 
 def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
-    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
+    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses,
+    a box at rest).
 
         v_i ← v_i + Σ_j Ω_ij e_ij,     r_i ← r_i + v_i δt.
 
-    The recorded virial is that of the collision impulses divided by δt (the mean
-    force they exert over the step).
+    The recorded virial parts are those of the collision impulses divided by δt (the
+    mean force they exert over the step).
     """
     dt_ = jnp.asarray(dt, dtype)
 
@@ -93,7 +116,7 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
             velocities=velocities,
             image=image,
             pair_list=pair_list,
-            virial=virial / dt_,
+            virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, pair_list, kT, bits),

@@ -2,8 +2,9 @@
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, without "pressure"
-no virial, without [[polymers]] no bond kernel, and with no pair term at all no
-neighbour search.  With solvent.method = "lattice_boltzmann" the particles are beads
+no virial, without [[polymers]] no bond kernel, without [body_force] no external
+force, with no pair term at all no neighbour search, and in a box at rest (no [flow])
+no flow arithmetic.  With solvent.method = "lattice_boltzmann" the particles are beads
 coupled by friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
 (jaxdpd.lattice_boltzmann); with its k_BT = 0 no noise is traced.
 """
@@ -17,15 +18,22 @@ import jax.numpy as jnp
 
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
-from jaxdpd.boxes import PeriodicBox
+from jaxdpd.boxes import make_box
+from jaxdpd.forcing import cosine_body_force
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
 from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
 from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.observables.chain_correlators import (
+    init_chain_correlators,
+    sample_every,
+    update_chain_correlators,
+)
 from jaxdpd.observables.chain_series import conformation_samples
+from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.pairs import soft_repulsion_term, wca_term
-from jaxdpd.pairwise import accumulate, pair_geometry
+from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
@@ -49,7 +57,7 @@ class Simulation:
 
     Attributes:
         scene: the scene it was built from.
-        box: the periodic box.
+        box: the static box (jaxdpd.boxes; bind it to a state's box_state).
         blocks: the polymer chain blocks (jaxdpd.topology.ChainBlock), maybe empty.
         dtype: floating dtype of positions, velocities and forces.
         masses: (N,) particle masses, or None when all are 1.
@@ -60,10 +68,12 @@ class Simulation:
         reallocate: `reallocate(state, (pairs, cell_occupancy)) -> state` with
             neighbour buffers re-sized from the state's positions to hold at least
             the given needs (host side, after an overflow).
+        init_observers: `init_observers(state) -> state` with empty on-device
+            accumulators (`state.observers`), e.g. to discard the equilibration.
     """
 
     scene: Scene
-    box: PeriodicBox
+    box: object
     blocks: tuple
     dtype: object
     masses: object
@@ -71,6 +81,7 @@ class Simulation:
     init_fn: Callable
     step_fn: Callable
     reallocate: Callable
+    init_observers: Callable
 
 
 def pair_terms(scene: Scene, dtype) -> list:
@@ -120,12 +131,17 @@ def build(scene: Scene) -> Simulation:
     Cached per scene, so building an equal scene again reuses the compiled chunks.
     """
     dtype = jnp.dtype(scene.precision)
-    box = PeriodicBox(tuple(scene.box.lengths))
+    box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
     n = scene.n_particles
     terms = pair_terms(scene, dtype)
     blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
+    body_force = None
+    if scene.body_force is not None:
+        body_force = cosine_body_force(
+            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
+        )
     search = None
     if terms:
         search = neighbor_search(
@@ -137,35 +153,42 @@ def build(scene: Scene) -> Simulation:
             scene.neighbors.format,
         )
 
-    def pair_interactions(positions, velocities, state):
-        """Σ of the pair terms: per-particle vectors, virial, refreshed pair list."""
+    def pair_interactions(bound_box, positions, velocities, state):
+        """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
         if not terms:
-            zeros = jnp.zeros_like(positions)
-            return zeros, jnp.zeros((3, 3), dtype), state.pair_list
-        pair_list = search.update(positions, state.pair_list)
-        geometry = pair_geometry(box, positions, pair_list, scene.cutoff, search.half)
+            return jnp.zeros_like(positions), {}, state.pair_list
+        pair_list = search.update(positions, state.pair_list, state.box_state)
+        geometry = pair_geometry(bound_box, positions, pair_list, scene.cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
-        magnitude = sum(term(geometry, context) for term in terms)
-        vectors, virial = accumulate(geometry, magnitude, with_virial)
-        if virial is None:
-            virial = jnp.zeros((3, 3), dtype)
+        parts = {}
+        for term in terms:
+            parts.update(term(geometry, context))
+        vectors = accumulate(geometry, sum(parts.values()))
+        virial = {}
+        if with_virial:
+            virial = {name: pair_virial(geometry, m) for name, m in parts.items()}
         return vectors, virial, pair_list
 
     def interactions(positions, velocities, state):
-        """Pair terms plus the springs of every chain block.
+        """Pair terms plus the springs of every chain block, in the box of `state`.
 
         Returns:
-            (per-particle vectors, virial, refreshed pair list, error bits).
+            (per-particle vectors, virial parts {name: (3, 3)}, refreshed pair list,
+            error bits).
         """
-        vectors, virial, pair_list = pair_interactions(positions, velocities, state)
+        bound_box = box.bind(state.box_state)
+        vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
+        if body_force is not None:
+            vectors = vectors + body_force(positions)
         bits = jnp.asarray(0, jnp.int32)
         for block in blocks:
             bonded = chain_bond_forces(
-                box, block.take(positions), block.take(state.image), block.law, with_virial
+                bound_box, block.take(positions), block.take(state.image), block.law, with_virial
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
-            virial = virial + bonded.virial
+            if with_virial:
+                virial["bond"] = virial.get("bond", 0) + bonded.virial
             bits = (
                 bits
                 | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
@@ -205,30 +228,61 @@ def build(scene: Scene) -> Simulation:
     def step_fn(state):
         state = advance(state)
         samples = step_samples(observables, state, masses)
+        bound_box = box.bind(state.box_state)
         if "conformation" in observables:
-            samples.update(conformation_samples(box, state.positions, blocks))
+            samples.update(conformation_samples(bound_box, state.positions, blocks))
+        if "profile" in observables:
+            samples.update(
+                profile_samples(
+                    bound_box, state.positions, state.velocities, masses, scene.output.profile_bins
+                )
+            )
+        if "dynamics" in observables:
+            observers = sample_every(
+                state.step,
+                scene.output.correlator_every,
+                state.observers,
+                lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
+            )
+            state = state.set(observers=observers)
         return state, samples
 
-    def allocate_pairs(positions, minimum=None):
+    def init_observers(state):
+        """The state with empty on-device accumulators (e.g. after equilibration)."""
+        if "dynamics" not in observables:
+            return state
+        return state.set(
+            observers=init_chain_correlators(
+                box, state.positions, state.image, blocks, scene.output.correlator_levels
+            )
+        )
+
+    def allocate_pairs(positions, box_state, minimum=None):
         if search is None:
             return _empty_pair_list(positions)
-        return search.allocate(positions, scene.neighbors.capacity_multiplier, minimum)
+        return search.allocate(positions, scene.neighbors.capacity_multiplier, minimum, box_state)
 
     def init_fn():
         positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
+        box_state = box.initial_state(dtype)
         state = SimState(
             positions=positions,
             velocities=velocities,
             forces=jnp.zeros_like(positions),
             image=image,
             species=species,
-            pair_list=allocate_pairs(positions),
-            virial=jnp.zeros((3, 3), dtype),
+            pair_list=allocate_pairs(positions, box_state),
+            virial={},
             step=jnp.asarray(0, jnp.int32),
             time=jnp.asarray(0.0, dtype),
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
+            box_state=box_state,
         )
+        # Zeros of the virial parts a step records, so the state keeps one structure.
+        parts = jax.eval_shape(interactions, positions, velocities, state)[1]
+        state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
+        state = init_observers(state)
         if scene.solvent.method != "hoogerbrugge_koelman":
             forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
             state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
@@ -237,9 +291,11 @@ def build(scene: Scene) -> Simulation:
         return state
 
     def reallocate(state, minimum):
-        return state.set(pair_list=allocate_pairs(state.positions, minimum))
+        return state.set(pair_list=allocate_pairs(state.positions, state.box_state, minimum))
 
-    return Simulation(scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate)
+    return Simulation(
+        scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate, init_observers
+    )
 
 
 def _empty_pair_list(positions):
@@ -247,4 +303,4 @@ def _empty_pair_list(positions):
     n = positions.shape[0]
     empty = jnp.full((1,), n, jnp.int32)
     zero = jnp.asarray(0, jnp.int32)
-    return PairList(empty, empty, positions, zero, zero, jnp.asarray(False), zero)
+    return PairList(empty, empty, positions, None, zero, zero, jnp.asarray(False), zero)

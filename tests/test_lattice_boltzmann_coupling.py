@@ -60,8 +60,8 @@ def _bead_state(positions, forces, fluid: FluidParameters, dtype):
         forces=forces,
         image=jnp.zeros((n, 3), jnp.int32),
         species=jnp.zeros(n, jnp.int32),
-        pair_list=PairList(empty, empty, positions, zero, zero, jnp.asarray(False), zero),
-        virial=jnp.zeros((3, 3), dtype),
+        pair_list=PairList(empty, empty, positions, None, zero, zero, jnp.asarray(False), zero),
+        virial={},
         step=zero,
         time=jnp.asarray(0.0, dtype),
         seed=jnp.asarray(1, jnp.uint32),
@@ -96,7 +96,7 @@ def test_dragged_bead_reaches_the_velocity_of_its_effective_friction():
 
     def no_forces(positions, velocities, state):
         zero = jnp.asarray(0, jnp.int32)
-        return jnp.zeros_like(positions), jnp.zeros((3, 3), dtype), state.pair_list, zero
+        return jnp.zeros_like(positions), {}, state.pair_list, zero
 
     step = coupled_step(
         PeriodicBox((float(n),) * 3),

@@ -9,6 +9,8 @@ Layout written:
                                output.trajectory_every steps)
     /observables/<name>/{step,time,value}   per-step time series
     /observables/rdf/{r,g}     radial distribution (fixed, rewritten at the end)
+    /observables/<species>/<g1|g2|g3|end_to_end_acf>/{lag_time,value,per_element}
+                               on-device time correlations (written at the end)
     /checkpoint                the full state of the last good step (restart)
 
 Data is flushed after every chunk, so an interrupted run leaves a readable file.
@@ -22,7 +24,7 @@ import numpy as np
 import jaxdpd
 
 UNITS = "reduced DPD units: r_c = m = k_BT = 1 (length r_c, time r_c sqrt(m/k_BT))"
-CHECKPOINT_FIELDS = ("positions", "velocities", "forces", "image", "species", "virial")
+CHECKPOINT_FIELDS = ("positions", "velocities", "forces", "image", "species")
 CHECKPOINT_SCALARS = ("step", "time", "seed", "flags")
 
 
@@ -115,6 +117,18 @@ class H5MDWriter:
         group.create_dataset("g", data=g)
         group.attrs["samples"] = samples
 
+    def write_correlation(self, name: str, lag_times, values) -> None:
+        """(Re)write a time correlation: `observables/<name>/{lag_time,value}`, the
+        value averaged over its chains (and beads), plus `per_element` (K, C[, M])."""
+        path = f"observables/{name}"
+        if path in self.file:
+            del self.file[path]
+        group = self.file.create_group(path)
+        values = np.asarray(values)
+        group.create_dataset("lag_time", data=np.asarray(lag_times, np.float64))
+        group.create_dataset("value", data=values.reshape(len(values), -1).mean(axis=1))
+        group.create_dataset("per_element", data=values)
+
     def write_checkpoint(self, state, reason: str = "") -> None:
         """Store the full state (replacing the previous checkpoint)."""
         if "checkpoint" in self.file:
@@ -122,6 +136,9 @@ class H5MDWriter:
         group = self.file.create_group("checkpoint")
         for name in CHECKPOINT_FIELDS:
             group.create_dataset(name, data=np.asarray(getattr(state, name)))
+        virial = group.create_group("virial")
+        for part, value in state.virial.items():
+            virial.create_dataset(part, data=np.asarray(value))
         for name in CHECKPOINT_SCALARS:
             group.attrs[name] = np.asarray(getattr(state, name)).item()
         group.attrs["reason"] = reason
@@ -164,6 +181,7 @@ def read_checkpoint(path) -> dict:
     with h5py.File(path, "r") as handle:
         group = handle["checkpoint"]
         data = {name: group[name][()] for name in CHECKPOINT_FIELDS}
+        data["virial"] = {part: value[()] for part, value in group["virial"].items()}
         data.update({name: group.attrs[name] for name in CHECKPOINT_SCALARS})
         data["reason"] = group.attrs["reason"]
         return data

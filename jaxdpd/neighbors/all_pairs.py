@@ -22,21 +22,24 @@ def all_pairs_search(n_particles: int, cutoff: float) -> NeighborSearch:
     i, j = np.triu_indices(n_particles, 1)
     count = jnp.asarray(len(i), jnp.int32)
 
-    def allocate(positions, capacity_multiplier: float = 1.25, minimum=None) -> PairList:
+    def allocate(
+        positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None
+    ) -> PairList:
         """The fixed list (capacity_multiplier and minimum are irrelevant: it never
-        overflows)."""
+        overflows; every pair is listed whatever the box state)."""
         zero = jnp.asarray(0, jnp.int32)
         return PairList(
             i=jnp.asarray(i, jnp.int32),
             j=jnp.asarray(j, jnp.int32),
             reference_positions=positions,
+            reference_box_state=box_state,
             needed_pairs=count,
             needed_cell_occupancy=zero,
             overflow=jnp.asarray(False),
             rebuilds=zero,
         )
 
-    def update(positions, pair_list: PairList) -> PairList:
+    def update(positions, pair_list: PairList, box_state=None) -> PairList:
         return pair_list
 
     return NeighborSearch(allocate=allocate, update=update, half=True, cutoff=cutoff, skin=0.0)
