@@ -22,6 +22,7 @@ import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdpd.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
 
@@ -99,6 +100,10 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
     return jnp.where(slots < counts[None, :], gathered, n), slot, jnp.max(counts)
 
 
+# Size (offsets × slots × cells) up to which all stencil offsets are tested at once.
+_SMALL_GRID_ELEMENTS = 1 << 18
+
+
 def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
     """Distance tests of every (slot, cell) against the slots of its stencil cells.
 
@@ -123,44 +128,61 @@ def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
     coordinates = [
         jnp.where(empty, jnp.asarray(jnp.nan, dtype), frame[:, axis][safe]) for axis in range(3)
     ]
-    groups = math.ceil(cell_capacity / WORD_BITS)
     limit = jnp.asarray(list_cutoff**2, dtype)
-    slot_index = jnp.arange(cell_capacity).reshape((-1, 1, 1, 1))
+    groups = math.ceil(cell_capacity / WORD_BITS)
+    slot_index = np.arange(cell_capacity)
+    # Small grids test all offsets in one batch (a few large fused loops instead of
+    # many tiny ones: dispatch, not arithmetic, bounds small systems); large grids
+    # test one offset at a time (measured: intermediate batches run slower than both).
+    small = len(offsets) * members.size <= _SMALL_GRID_ELEMENTS
+    batch_size = len(offsets) if small else 1
     words = []
-    for offset in offsets:
-        shift = tuple(-o for o in offset)
-        rolled = []
-        for axis in range(3):
-            neighbor = jnp.roll(coordinates[axis], shift, axis=(1, 2, 3))
-            if offset[axis] != 0:
-                # Cells whose neighbour wrapped around see it one box length away.
-                edge = n_cells[axis] - 1 if offset[axis] > 0 else 0
-                index = jnp.arange(n_cells[axis]).reshape(
-                    [n_cells[axis] if a == axis else 1 for a in range(3)]
-                )
-                image = jnp.where(index == edge, offset[axis] * lengths[axis], 0.0)
-                neighbor = neighbor + image.astype(dtype)[None]
-            rolled.append(neighbor)
-        group_words = [jnp.zeros(grid_shape, jnp.uint32) for _ in range(groups)]
+    for first in range(0, len(offsets), batch_size):
+        batch = offsets[first : first + batch_size]
+        rolled = [
+            jnp.stack(r)
+            for r in zip(*(_rolled(coordinates, o, n_cells, lengths) for o in batch), strict=True)
+        ]
+        # Within the own cell (offset 0) only slot pairs i < j count.
+        is_own = np.array([offset == (0, 0, 0) for offset in batch])[:, None, None]
+        counted = ~is_own | (slot_index[:, None] < slot_index[None, :])[None]
+        batch_words = [jnp.zeros((len(batch),) + grid_shape, jnp.uint32) for _ in range(groups)]
         for j in range(cell_capacity):
+            # Slot j of each neighbour cell against all slots of the own cell.
             separation = []
             for axis in range(3):
-                component = coordinates[axis] - rolled[axis][j][None]
+                component = coordinates[axis][None] - rolled[axis][:, j, None]
                 if n_cells[axis] == 1:
                     length = jnp.asarray(lengths[axis], dtype)
                     component = component - length * jnp.round(component / length)
                 separation.append(component)
             separation = bound_box.frame_to_cartesian(tuple(separation))
             distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
-            within = distance_sq < limit
-            if offset == (0, 0, 0):
-                within = within & (slot_index < j)
-            bit = jnp.uint32(j % WORD_BITS)
-            group_words[j // WORD_BITS] = group_words[j // WORD_BITS] | (
-                within.astype(jnp.uint32) << bit
+            within = (distance_sq < limit) & counted[:, :, j, None, None, None]
+            group, bit = divmod(j, WORD_BITS)
+            batch_words[group] = batch_words[group] | (within.astype(jnp.uint32) << jnp.uint32(bit))
+        # (batch, groups, slots, grid): word index offset · groups + group.
+        words.append(jnp.stack(batch_words, axis=1).reshape((-1, cell_capacity) + n_cells))
+    return jnp.concatenate(words).reshape(len(offsets) * groups, cell_capacity, -1)
+
+
+def _rolled(coordinates, offset, n_cells, lengths):
+    """Coordinates of the slots of each cell's neighbour (cell + offset), per axis.
+
+    Cells whose neighbour wrapped around the grid see it one box length away.
+    """
+    rolled = []
+    for axis in range(3):
+        neighbor = jnp.roll(coordinates[axis], tuple(-o for o in offset), axis=(1, 2, 3))
+        if offset[axis] != 0:
+            edge = n_cells[axis] - 1 if offset[axis] > 0 else 0
+            index = jnp.arange(n_cells[axis]).reshape(
+                [n_cells[axis] if a == axis else 1 for a in range(3)]
             )
-        words.extend(group_words)
-    return jnp.stack(words).reshape(len(words), cell_capacity, -1)
+            image = jnp.where(index == edge, offset[axis] * lengths[axis], 0.0)
+            neighbor = neighbor + image.astype(neighbor.dtype)[None]
+        rolled.append(neighbor)
+    return rolled
 
 
 def _compact(accepted, pair_capacity: int):
