@@ -6,9 +6,10 @@ Hoogerbrugge–Koelman collision); it refreshes the neighbour list itself and re
 error bits of its own (e.g. an overstretched spring).
 """
 
+import jax
 import jax.numpy as jnp
 
-from jaxdpd import errors
+from jaxdpd import errors, noise
 
 
 def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
@@ -97,6 +98,90 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, pair_list, kT, bits),
+        )
+
+    return step
+
+
+def mpcd_cycle(
+    box,
+    collision_time: float,
+    substeps: int,
+    monomers,
+    monomer_step,
+    collide,
+    kT: float,
+    dtype,
+    masses=None,
+):
+    """One MPCD cycle (Mussawisade et al. 2005, §II): streaming over the collision time
+    h, then a collision.
+
+    Streaming: every particle outside the monomer range moves ballistically,
+    r ← r + h v (eq. 1); the monomers [first, stop) instead take `substeps` steps of
+    `monomer_step` (velocity Verlet with h_p = h/substeps under their bonded and pair
+    forces) on a state that holds their rows only.  Collision: `collide(positions,
+    velocities, key) -> (velocities, collisional virial)` with the key of collision
+    n + 1 (`noise.step_key(seed, n + 1)`, n the step counter), so the grid shift and
+    rotation axes are functions of (seed, collision index) alone.
+
+    The recorded virial is the collisional one divided by h (the mean force over the
+    cycle, as for the Hoogerbrugge–Koelman impulses) plus the monomers' force virial
+    at the end of the streaming.
+
+    Args:
+        box: the box (its `wrap` moves particles across the boundaries).
+        collision_time: h.
+        substeps: h/h_p.
+        monomers: (first, stop) index range of the monomers, or None.
+        monomer_step: `step(state) -> state` over the monomer rows (None without
+            monomers).
+        collide: the collision.
+        kT: temperature scale of the runaway check.
+        dtype: floating dtype.
+        masses: (N,) masses or None.
+    Returns:
+        `step(state) -> state`, one collision per step; time advances by h.
+    """
+    h = jnp.asarray(collision_time, dtype)
+
+    def stream_monomers(state, first, stop):
+        rows = slice(first, stop)
+        sub = state.set(
+            positions=state.positions[rows],
+            velocities=state.velocities[rows],
+            forces=state.forces[rows],
+            image=state.image[rows],
+            species=state.species[rows],
+        )
+        return jax.lax.fori_loop(0, substeps, lambda _, s: monomer_step(s), sub)
+
+    def step(state):
+        positions, image = box.wrap(state.positions + h * state.velocities, state.image)
+        velocities, forces = state.velocities, state.forces
+        virial, pair_list, bits = jnp.zeros((3, 3), dtype), state.pair_list, jnp.int32(0)
+        if monomers is not None:
+            first, stop = monomers
+            moved = stream_monomers(state, first, stop)
+            positions = positions.at[first:stop].set(moved.positions)
+            image = image.at[first:stop].set(moved.image)
+            velocities = velocities.at[first:stop].set(moved.velocities)
+            forces = forces.at[first:stop].set(moved.forces)
+            virial, pair_list, bits = moved.virial, moved.pair_list, moved.flags
+        collision = state.step + 1
+        velocities, collision_virial = collide(
+            positions, velocities, noise.step_key(state.seed, collision)
+        )
+        return state.set(
+            positions=positions,
+            velocities=velocities,
+            forces=forces,
+            image=image,
+            pair_list=pair_list,
+            virial=virial + collision_virial / h,
+            step=collision,
+            time=state.time + h,
+            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
         )
 
     return step

@@ -147,7 +147,7 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
         if rdf is not None:
             rdf.sample(result.state.positions)
         if writer is not None:
-            writer.append_observables(result.first_step, scene.integrator.dt, result.series)
+            writer.append_observables(result.first_step, scene.step_time, result.series)
             if every and int(result.state.step) % every == 0:
                 writer.append_frame(result.state)
             writer.flush()

@@ -17,21 +17,36 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
                 off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
                 method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
+                method = "mpcd" (stochastic rotation dynamics, Mussawisade et al. 2005
+                §II): kT > 0 (initial velocities, thermostat), cell_size a > 0
+                (every box edge a whole multiple ≥ 2), rotation_angle α in (0, 180]
+                degrees (default 130), collision_time h > 0 (default 0.1),
+                thermostat = "none" | "maxwell_boltzmann_scaling" (cell level,
+                Huang et al. 2010), collision = "cell" (SRD) | "particle" (the
+                solvent-free Rouse variant, §IV.A: every particle must be a monomer);
+                particles per cell ρ = particles.density · a³.  Solvent particles
+                stream freely; monomers move by velocity Verlet with integrator.dt =
+                h_p (h/h_p a whole number, default h_p = h) and join the collisions
+                with their species masses
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
-                {"A-B" = a_AB, ...} over species names (dpd only)
+                {"A-B" = a_AB, ...} over species names (dpd; with mpcd it acts
+                among the [[polymers]] species only)
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
                 law = "hookean" (spring_constant) | "fraenkel" (spring_constant,
                 rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd solvents only
+                wca_sigma = 1); dpd and mpcd solvents (with mpcd the chained species
+                must be adjacent in particles.species)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation"}; rdf_bins, rdf_max;
+                "pressure", "rdf", "conformation", "transverse_current"}; rdf_bins,
+                rdf_max; current_modes (transverse currents at k = 2πn/L, n = 1 ..
+                current_modes; cubic boxes);
                 trajectory_every (0 = never)
 """
 
@@ -40,6 +55,7 @@ import math
 import tomllib
 from dataclasses import asdict, dataclass, field
 
+from jaxdpd.mpcd.cells import collision_grid
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -49,12 +65,14 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "mpcd")
+MPCD_THERMOSTATS = ("none", "maxwell_boltzmann_scaling")
+MPCD_COLLISIONS = ("cell", "particle")
 NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-OBSERVABLES = ("temperature", "pressure", "rdf", "conformation")
+OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "transverse_current")
 
 
 @dataclass(frozen=True)
@@ -94,11 +112,21 @@ class Solvent:
     pi0: float = 1.0 / 3.0
     omega: float = 4.0 / 3.0
     delta_pi: float = 1.0 / 3.0
+    cell_size: float = 1.0
+    rotation_angle: float = 130.0
+    collision_time: float = 0.1
+    thermostat: str = "none"
+    collision: str = "cell"
 
     @property
     def sigma(self) -> float:
         """Random-force amplitude σ = √(2 γ k_BT) (thesis eq. 2.8)."""
         return math.sqrt(2 * self.gamma * self.kT)
+
+    @property
+    def rotation_angle_radians(self) -> float:
+        """The MPCD rotation angle α in radians (the scene gives degrees)."""
+        return math.radians(self.rotation_angle)
 
 
 @dataclass(frozen=True)
@@ -164,6 +192,7 @@ class Output:
     path: str | None = None
     observables: tuple[str, ...] = ("temperature", "pressure")
     rdf_bins: int = 100
+    current_modes: int = 3
     rdf_max: float = 3.0
     trajectory_every: int = 0
 
@@ -257,6 +286,8 @@ class Scene:
         pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
+        if solvent.method == "mpcd":
+            _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), lengths, run.chunk)
         if "conformation" in output.observables and not polymers:
@@ -284,6 +315,14 @@ class Scene:
     def n_particles(self) -> int:
         """Total number of particles N."""
         return self.particles.count
+
+    @property
+    def step_time(self) -> float:
+        """Simulated time per step: the collision time h of an MPCD solvent (its
+        monomer sub-steps integrator.dt run inside the step), else integrator.dt."""
+        if self.solvent.method == "mpcd":
+            return self.solvent.collision_time
+        return self.integrator.dt
 
     @property
     def volume(self) -> float:
@@ -343,6 +382,10 @@ class Scene:
 
 
 def _solvent_dict(solvent: Solvent) -> dict:
+    if solvent.method == "mpcd":
+        return {"method": "mpcd", "kT": solvent.kT} | {
+            key: getattr(solvent, key) for key in MPCD_FIELDS
+        }
     if solvent.method == "dpd":
         return {
             "method": "dpd",
@@ -358,17 +401,52 @@ def _solvent_dict(solvent: Solvent) -> dict:
     }
 
 
+MPCD_FIELDS = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
+HOOGERBRUGGE_KOELMAN_FIELDS = ("pi0", "omega", "delta_pi")
+DPD_FIELDS = ("gamma", "sigma", "noise")
+
+
+def _refuse_fields_of_other_methods(section, method: str) -> None:
+    owners = {
+        "dpd": DPD_FIELDS,
+        "hoogerbrugge_koelman": HOOGERBRUGGE_KOELMAN_FIELDS,
+        "mpcd": MPCD_FIELDS,
+    }
+    for owner, fields in owners.items():
+        misplaced = sorted(set(fields) & set(section))
+        if owner != method and misplaced:
+            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
+
+
+def _read_mpcd_solvent(section) -> Solvent:
+    """The MPCD (SRD) solvent fields (module docstring)."""
+    path = "solvent"
+    return Solvent(
+        "mpcd",
+        kT=read_number(section, "kT", path, 1.0, minimum=0, exclusive_minimum=True),
+        cell_size=read_number(section, "cell_size", path, 1.0, minimum=0, exclusive_minimum=True),
+        rotation_angle=read_number(
+            section, "rotation_angle", path, 130.0, minimum=0, exclusive_minimum=True, maximum=180
+        ),
+        collision_time=read_number(
+            section, "collision_time", path, 0.1, minimum=0, exclusive_minimum=True
+        ),
+        thermostat=read_choice(section, "thermostat", path, MPCD_THERMOSTATS, "none"),
+        collision=read_choice(section, "collision", path, MPCD_COLLISIONS, "cell"),
+    )
+
+
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi"),
+        ("method", "kT", *DPD_FIELDS, *HOOGERBRUGGE_KOELMAN_FIELDS, *MPCD_FIELDS),
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
+    _refuse_fields_of_other_methods(section, method)
+    if method == "mpcd":
+        return _read_mpcd_solvent(section)
     if method == "dpd":
-        misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
-        if misplaced:
-            raise ValueError(f"solvent: {misplaced} belong to method 'hoogerbrugge_koelman'")
         kT = read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True)
         gamma = read_number(section, "gamma", "solvent", 4.5, minimum=0)
         if "sigma" in section:
@@ -382,9 +460,8 @@ def _read_solvent(section) -> Solvent:
                 )
         noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
         return Solvent(method, kT=kT, gamma=gamma, noise=noise)
-    misplaced = sorted({"kT", "gamma", "sigma", "noise"} & set(section))
-    if misplaced:
-        raise ValueError(f"solvent: {misplaced} belong to method 'dpd', not {method!r}")
+    if "kT" in section:
+        raise ValueError(f"solvent: ['kT'] belongs to methods 'dpd' and 'mpcd', not {method!r}")
     return Solvent(
         method,
         pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
@@ -573,9 +650,10 @@ def _polymer_entries(entries) -> list:
 
 
 def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
-    if entries and solvent.method != "dpd":
+    if entries and solvent.method not in ("dpd", "mpcd"):
         raise ValueError(
-            f"polymers: bead-spring chains need solvent.method = 'dpd' (got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd' or 'mpcd' "
+            f"(got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -633,10 +711,53 @@ def _read_bond(section, path: str, lengths) -> dict:
 def _read_integrator(section, solvent: Solvent) -> Integrator:
     section = section if section is not None else {}
     check_keys(section, ("dt", "lambda"), "integrator")
-    default_dt = 1.0 if solvent.method == "hoogerbrugge_koelman" else 0.04
+    default_dt = {"hoogerbrugge_koelman": 1.0, "mpcd": solvent.collision_time}.get(
+        solvent.method, 0.04
+    )
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
+    if solvent.method == "mpcd":
+        h = solvent.collision_time
+        substeps = round(h / dt)
+        if substeps < 1 or abs(substeps * dt - h) > 1e-9 * h:
+            raise ValueError(
+                f"integrator.dt = {dt!r}: the monomer sub-step h_p must divide "
+                f"solvent.collision_time h = {h!r} a whole number of times (h/h_p = "
+                f"{h / dt:.6g}); e.g. dt = {h / max(1, math.ceil(h / dt)):.6g}"
+            )
+        if lam != 0.5:
+            raise ValueError(
+                f"integrator.lambda = {lam!r}: MPCD monomers move by plain velocity "
+                "Verlet (λ = 0.5; Mussawisade et al. §II); remove integrator.lambda"
+            )
     return Integrator(dt=dt, lambda_=lam)
+
+
+def _check_mpcd(solvent: Solvent, lengths, species, polymers, pair) -> None:
+    """Cross-section checks of an MPCD scene (module docstring)."""
+    collision_grid(lengths, solvent.cell_size)
+    chained = {p.species for p in polymers}
+    names = [s.name for s in species]
+    positions = [k for k, name in enumerate(names) if name in chained]
+    if positions and positions[-1] - positions[0] + 1 != len(positions):
+        raise ValueError(
+            f"particles.species: with solvent.method = 'mpcd' the chained species "
+            f"{sorted(chained)} must be adjacent in the species list (monomers form one "
+            f"index range); reorder {names}"
+        )
+    if solvent.collision == "particle" and set(names) != chained:
+        free = [name for name in names if name not in chained]
+        raise ValueError(
+            f"solvent.collision = 'particle' is the solvent-free Rouse variant (every "
+            f"monomer's velocity rotated alone); species {free} are not chained: give "
+            "them [[polymers]] entries, remove them, or use collision = 'cell'"
+        )
+    if pair is not None and not chained:
+        raise ValueError(
+            "pair: with solvent.method = 'mpcd' pair forces act among the [[polymers]] "
+            "species only (solvent particles feel no forces); add [[polymers]] or remove "
+            "the [pair] section"
+        )
 
 
 def _read_run(section) -> Run:
@@ -650,7 +771,9 @@ def _read_run(section) -> Run:
 
 def _read_output(section, lengths, chunk: int) -> Output:
     check_keys(
-        section, ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every"), "output"
+        section,
+        ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every", "current_modes"),
+        "output",
     )
     observables = read_list(section, "observables", "output", ["temperature", "pressure"])
     for name in observables:
@@ -670,8 +793,14 @@ def _read_output(section, lengths, chunk: int) -> Output:
             f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
             f"({min(lengths) / 2:.4g})"
         )
+    if "transverse_current" in observables and len(set(lengths)) != 1:
+        raise ValueError(
+            f"output.observables: 'transverse_current' averages the six transverse pairs "
+            f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
+        )
     return Output(
         path=read_string(section, "path", "output", None),
+        current_modes=read_number(section, "current_modes", "output", 3, minimum=1, integer=True),
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,

@@ -3,9 +3,11 @@
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, without "pressure"
 no virial, without [[polymers]] no bond kernel, and with no pair term at all no
-neighbour search.
+neighbour search.  With an MPCD solvent only the monomers feel forces: the force
+kernel and its neighbour search cover their index range alone.
 """
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -17,9 +19,11 @@ from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
+from jaxdpd.mpcd.step import mpcd_step
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.thermo import step_samples
+from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term
 from jaxdpd.pairwise import accumulate, pair_geometry
 from jaxdpd.placement import initial_configuration
@@ -94,42 +98,25 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
-def particle_masses(scene: Scene, dtype):
-    """(N,) particle masses in species order, or None when every mass is 1 (then no
-    mass arithmetic is traced)."""
-    species = scene.particles.species
-    if all(s.mass == 1.0 for s in species):
-        return None
-    return jnp.repeat(
-        jnp.asarray([s.mass for s in species], dtype),
-        jnp.asarray([s.count for s in species]),
-        total_repeat_length=scene.n_particles,
-    )
+def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, dtype):
+    """The composed force kernel: the pair terms plus the springs of every chain block.
 
+    It acts on one contiguous range of particles: all of them, or the monomers of an
+    MPCD scene (then the positions and state it is given hold those rows only, the
+    neighbour search covers them alone and `blocks` index within the range).
 
-@functools.lru_cache(maxsize=16)
-def build(scene: Scene) -> Simulation:
-    """Compose the scene's simulation (see the module docstring).
-
-    Cached per scene, so building an equal scene again reuses the compiled chunks.
+    Args:
+        box: the periodic box.
+        terms: pair terms (`pair_terms`), maybe empty.
+        search: the neighbour backend over the range (None without pair terms).
+        blocks: ChainBlocks indexed within the range.
+        cutoff: r_c of the pair terms.
+        with_virial: compute the virial (else zeros).
+        dtype: floating dtype.
+    Returns:
+        `interactions(positions, velocities, state) -> (vectors, virial, pair_list,
+        error bits)`.
     """
-    dtype = jnp.dtype(scene.precision)
-    box = PeriodicBox(tuple(scene.box.lengths))
-    n = scene.n_particles
-    terms = pair_terms(scene, dtype)
-    blocks = chain_blocks(scene)
-    with_virial = "pressure" in scene.output.observables
-    masses = particle_masses(scene, dtype)
-    search = None
-    if terms:
-        search = neighbor_search(
-            box,
-            n,
-            scene.cutoff,
-            scene.neighbors.skin,
-            scene.neighbors.method,
-            scene.neighbors.format,
-        )
 
     def pair_interactions(positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial, refreshed pair list."""
@@ -137,7 +124,7 @@ def build(scene: Scene) -> Simulation:
             zeros = jnp.zeros_like(positions)
             return zeros, jnp.zeros((3, 3), dtype), state.pair_list
         pair_list = search.update(positions, state.pair_list)
-        geometry = pair_geometry(box, positions, pair_list, scene.cutoff, search.half)
+        geometry = pair_geometry(box, positions, pair_list, cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
         magnitude = sum(term(geometry, context) for term in terms)
@@ -167,8 +154,63 @@ def build(scene: Scene) -> Simulation:
             )
         return vectors, virial, pair_list, bits
 
+    return interactions
+
+
+def force_range(scene: Scene, blocks) -> tuple[int, int]:
+    """The index range (first, stop) of the particles that feel forces: all of them,
+    or with an MPCD solvent the monomers only ((0, 0) without polymers)."""
+    if scene.solvent.method != "mpcd":
+        return 0, scene.n_particles
+    if not blocks:
+        return 0, 0
+    return min(b.first for b in blocks), max(b.stop for b in blocks)
+
+
+def particle_masses(scene: Scene, dtype):
+    """(N,) particle masses in species order, or None when every mass is 1 (then no
+    mass arithmetic is traced)."""
+    species = scene.particles.species
+    if all(s.mass == 1.0 for s in species):
+        return None
+    return jnp.repeat(
+        jnp.asarray([s.mass for s in species], dtype),
+        jnp.asarray([s.count for s in species]),
+        total_repeat_length=scene.n_particles,
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def build(scene: Scene) -> Simulation:
+    """Compose the scene's simulation (see the module docstring).
+
+    Cached per scene, so building an equal scene again reuses the compiled chunks.
+    """
+    dtype = jnp.dtype(scene.precision)
+    box = PeriodicBox(tuple(scene.box.lengths))
+    terms = pair_terms(scene, dtype)
+    blocks = chain_blocks(scene)
+    first, stop = force_range(scene, blocks)
+    local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
+    with_virial = "pressure" in scene.output.observables
+    masses = particle_masses(scene, dtype)
+    search = None
+    if terms:
+        search = neighbor_search(
+            box,
+            stop - first,
+            scene.cutoff,
+            scene.neighbors.skin,
+            scene.neighbors.method,
+            scene.neighbors.format,
+        )
+
+    interactions = force_kernel(box, terms, search, local_blocks, scene.cutoff, with_virial, dtype)
+
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+    elif scene.solvent.method == "mpcd":
+        advance = mpcd_step(scene, box, interactions, masses, (first, stop), with_virial, dtype)
     else:
         advance = modified_velocity_verlet(
             box,
@@ -187,12 +229,17 @@ def build(scene: Scene) -> Simulation:
         samples = step_samples(observables, state, masses)
         if "conformation" in observables:
             samples.update(conformation_samples(box, state.positions, blocks))
+        if "transverse_current" in observables:
+            samples["transverse_current"] = transverse_currents(
+                state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
+            )
         return state, samples
 
     def allocate_pairs(positions, minimum=None):
         if search is None:
             return _empty_pair_list(positions)
-        return search.allocate(positions, scene.neighbors.capacity_multiplier, minimum)
+        rows = positions[first:stop]
+        return search.allocate(rows, scene.neighbors.capacity_multiplier, minimum)
 
     def init_fn():
         positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
@@ -209,9 +256,18 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
         )
-        if scene.solvent.method == "dpd":
-            forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
-            state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
+        if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
+            rows = slice(first, stop)
+            sub = state.set(image=image[rows], species=species[rows])
+            forces, virial, pair_list, bits = jax.jit(interactions)(
+                positions[rows], velocities[rows], sub
+            )
+            state = state.set(
+                forces=state.forces.at[rows].set(forces),
+                virial=virial,
+                pair_list=pair_list,
+                flags=bits,
+            )
         return state
 
     def reallocate(state, minimum):
