@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from mpcd_scenes import polymer_solution
 
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd import driver, errors
@@ -23,41 +24,24 @@ from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
 
-HOOKEAN = 3.0  # H = 3 k_BT/l² with l = 1 (seed eq. 3)
+HOOKEAN = 3.0  # H = 3 k_BT/l² with l = 1 (seed eq. 3), as in tests/mpcd_scenes.py
 
 
 PAIR_A = 25.0  # soft repulsion among monomers (with MPCD a [pair] acts among them only)
 
 
 def polymer_scene(precision="float64", observables=("temperature",), pair=False, **solvent):
-    """6³ box at ρ = 5 (1080 particles) with 8 Gaussian chains of 10 monomers of mass
-    M = ρm = 5 (the seed's choice M = ρm), h = 0.1, h_p = 0.01; with `pair` a soft
-    repulsion a = 25 among the monomers."""
+    """8 Gaussian chains of 10 monomers of mass M = ρm = 5 (the seed's choice) in 1000
+    solvent particles (tests/mpcd_scenes.py); with `pair` a soft repulsion a = 25
+    among the monomers."""
     pair_section = {"pair": {"kind": "soft_repulsion", "a": PAIR_A}} if pair else {}
     return Scene.from_dict(
-        {
+        polymer_solution(
+            precision=precision,
+            solvent=solvent,
+            output={"observables": list(observables)},
             **pair_section,
-            "seed": 3,
-            "precision": precision,
-            "box": {"lengths": [6, 6, 6]},
-            "particles": {
-                "density": 5.0,
-                "species": [
-                    {"name": "solvent", "count": 1000},
-                    {"name": "monomer", "count": 80, "mass": 5.0},
-                ],
-            },
-            "solvent": {"method": "mpcd", "collision_time": 0.1, **solvent},
-            "integrator": {"dt": 0.01},
-            "polymers": [
-                {
-                    "species": "monomer",
-                    "beads": 10,
-                    "bond": {"law": "hookean", "spring_constant": HOOKEAN},
-                }
-            ],
-            "output": {"observables": list(observables)},
-        }
+        )
     )
 
 

@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from mpcd_scenes import polymer_solution
 
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd import driver
@@ -123,28 +124,17 @@ def test_rouse_variant_center_of_mass_vacf_and_msd_are_eqs_7_and_11():
 
 
 def gaussian_chain_scene(steps_per_chunk=500):
-    """20 Gaussian chains of 5 monomers (M = ρm = 5, H = 3: l = 1) in an SRD solvent of
-    ρ = 5 in a 6³ box, α = 130°, h = 0.1, h_p = 0.01."""
+    """20 Gaussian chains of 5 monomers (M = ρm = 5, H = 3: l = 1) in 980 solvent
+    particles (tests/mpcd_scenes.py), α = 130°, h = 0.1, h_p = 0.01."""
     return Scene.from_dict(
-        {
-            "seed": 4,
-            "precision": "float64",
-            "box": {"lengths": [6, 6, 6]},
-            "particles": {
-                "density": 5.0,
-                "species": [
-                    {"name": "solvent", "count": 980},
-                    {"name": "chain", "count": 100, "mass": 5.0},
-                ],
-            },
-            "solvent": {"method": "mpcd", "collision_time": H},
-            "integrator": {"dt": 0.01},
-            "polymers": [
-                {"species": "chain", "beads": 5, "bond": {"law": "hookean", "spring_constant": 3.0}}
-            ],
-            "output": {"observables": ["temperature", "conformation"]},
-            "run": {"chunk": steps_per_chunk},
-        }
+        polymer_solution(
+            chains=20,
+            beads=5,
+            solvent=980,
+            seed=4,
+            output={"observables": ["temperature", "conformation"]},
+            run={"chunk": steps_per_chunk},
+        )
     )
 
 
@@ -165,8 +155,8 @@ def _check_ideal_chain(series, beads, n_blocks, sem_limit):
     Verlet bias of the configurational averages, O((ω h_p/2)²) ≈ 6·10⁻⁵ for
     ω² = 4H/M, is negligible."""
     for name, expected in (
-        ("chain/bond_length_sq", 1.0),
-        ("chain/gyration_radius_sq", (beads**2 - 1) / (6 * beads)),
+        ("monomer/bond_length_sq", 1.0),
+        ("monomer/gyration_radius_sq", (beads**2 - 1) / (6 * beads)),
     ):
         mean, error = block_average(series[name], n_blocks=n_blocks)
         assert error < sem_limit * expected, (name, mean, error)

@@ -4,25 +4,11 @@ resolved scene round-trips."""
 import copy
 
 import pytest
+from mpcd_scenes import polymer_solution
 
 from jaxdpd.scene import Scene
 
-BASE = {
-    "seed": 1,
-    "box": {"lengths": [6, 6, 6]},
-    "particles": {
-        "density": 5.0,
-        "species": [
-            {"name": "solvent", "count": 1000},
-            {"name": "monomer", "count": 80, "mass": 5.0},
-        ],
-    },
-    "solvent": {"method": "mpcd", "collision_time": 0.1, "rotation_angle": 130.0},
-    "integrator": {"dt": 0.01},
-    "polymers": [
-        {"species": "monomer", "beads": 10, "bond": {"law": "hookean", "spring_constant": 3.0}}
-    ],
-}
+BASE = polymer_solution()
 
 
 def _scene(**changes):

@@ -12,14 +12,16 @@ Mussawisade, Ripoll, Winkler & Gompper, J. Chem. Phys. 123, 144905 (2005), §III
 ρ is the mean number of solvent particles per cell, a the cell size, h the collision
 time, α the rotation angle, M the monomer mass and N_m the chain length.  η_kin rests
 on the molecular-chaos assumption.  With Poisson-distributed cell occupancies (a
-random grid shift over an ideal gas) the factor ρ − 1 becomes ρ − 1 + e^{−ρ} (cells
-never hold −1 particles: tests/test_mpcd_transport derives it); `poisson=True`
-selects that form.  Eqs. 7, 11 and 12 hold for a chain whose centre-of-mass velocity keeps on
-average the fraction 1 − γ of itself per collision (molecular chaos); γ is eq. 8
-in a solvent and exactly γ_α in the solvent-free Rouse variant.
+random grid shift over an ideal gas) the factor ρ − 1 of η_coll becomes
+ρ − 1 + e^{−ρ} (cells never hold −1 particles; tests/test_mpcd_transport derives
+it); `collisional_viscosity(poisson=True)` selects that form.  Eqs. 7, 11 and 12 hold
+for a chain whose centre-of-mass velocity keeps on average the fraction 1 − γ of
+itself per collision (molecular chaos); γ is eq. 8 in a solvent and exactly γ_α in
+the solvent-free Rouse variant.
 """
 
 import math
+from dataclasses import dataclass
 
 
 def rotation_factor(rotation_angle: float) -> float:
@@ -32,74 +34,72 @@ def rotation_factor(rotation_angle: float) -> float:
     return 2.0 / 3.0 * (1.0 - math.cos(rotation_angle))
 
 
-def _occupancy_factor(particles_per_cell: float, poisson: bool) -> float:
-    """ρ − 1, or its Poisson average ρ − 1 + e^{−ρ} (the mean of max(n − 1, 0))."""
-    rho = particles_per_cell
-    return rho - 1 + (math.exp(-rho) if poisson else 0.0)
+@dataclass(frozen=True)
+class SRDFluid:
+    """The parameters of an SRD fluid that enter eq. 6.
 
-
-def collisional_viscosity(
-    particles_per_cell: float,
-    rotation_angle: float,
-    collision_time: float,
-    cell_size: float = 1.0,
-    mass: float = 1.0,
-    poisson: bool = False,
-) -> float:
-    """η_coll of eq. 6 (units of mass/(length·time)).
-
-    Args:
-        particles_per_cell: ρ.
-        rotation_angle: α in radians.
-        collision_time: h.
-        cell_size: a.
-        mass: solvent particle mass m.
-        poisson: use ρ − 1 + e^{−ρ} for ρ − 1 (module docstring).
-    """
-    occupancy = _occupancy_factor(particles_per_cell, poisson)
-    return mass * occupancy * (1 - math.cos(rotation_angle)) / (18 * collision_time * cell_size)
-
-
-def kinetic_viscosity(
-    particles_per_cell: float,
-    rotation_angle: float,
-    collision_time: float,
-    kT: float = 1.0,
-    cell_size: float = 1.0,
-    poisson: bool = False,
-) -> float:
-    """η_kin of eq. 6 (molecular chaos).
-
-    Args:
-        particles_per_cell: ρ.
+    Attributes:
+        particles_per_cell: ρ, mean number of solvent particles per cell.
         rotation_angle: α in radians.
         collision_time: h.
         kT: k_BT.
         cell_size: a.
-        poisson: use ρ − 1 + e^{−ρ} for ρ − 1 (module docstring).
+        mass: solvent particle mass m.
     """
-    rho, alpha = particles_per_cell, rotation_angle
-    denominator = (4 - 2 * math.cos(alpha) - 2 * math.cos(2 * alpha)) * _occupancy_factor(
-        rho, poisson
-    )
-    return kT * collision_time * rho / cell_size**3 * (5 * rho / denominator - 0.5)
 
+    particles_per_cell: float
+    rotation_angle: float
+    collision_time: float
+    kT: float = 1.0
+    cell_size: float = 1.0
+    mass: float = 1.0
 
-def shear_viscosity(
-    particles_per_cell: float,
-    rotation_angle: float,
-    collision_time: float,
-    kT: float = 1.0,
-    cell_size: float = 1.0,
-    mass: float = 1.0,
-    poisson: bool = False,
-) -> float:
-    """η = η_kin + η_coll (eq. 6)."""
-    return kinetic_viscosity(
-        particles_per_cell, rotation_angle, collision_time, kT, cell_size, poisson
-    ) + collisional_viscosity(
-        particles_per_cell, rotation_angle, collision_time, cell_size, mass, poisson
-    )
+    @classmethod
+    def from_scene(cls, scene) -> "SRDFluid":
+        """The fluid of an MPCD scene (ρ = particles.density · a³, unit solvent mass)."""
+        solvent = scene.solvent
+        return cls(
+            scene.particles.density * solvent.cell_size**3,
+            solvent.rotation_angle_radians,
+            solvent.collision_time,
+            solvent.kT,
+            solvent.cell_size,
+        )
+
+    @property
+    def mass_density(self) -> float:
+        """ϱ = m ρ / a³."""
+        return self.mass * self.particles_per_cell / self.cell_size**3
+
+    def _occupancy(self, poisson: bool) -> float:
+        """ρ − 1, or its Poisson average ρ − 1 + e^{−ρ} (the mean of max(n − 1, 0))."""
+        rho = self.particles_per_cell
+        return rho - 1 + (math.exp(-rho) if poisson else 0.0)
+
+    def collisional_viscosity(self, poisson: bool = False) -> float:
+        """η_coll of eq. 6 (units of mass/(length·time)); `poisson`: ρ − 1 + e^{−ρ} for
+        ρ − 1 (module docstring)."""
+        return (
+            self.mass
+            * self._occupancy(poisson)
+            * (1 - math.cos(self.rotation_angle))
+            / (18 * self.collision_time * self.cell_size)
+        )
+
+    def kinetic_viscosity(self) -> float:
+        """η_kin of eq. 6 (molecular chaos, number fluctuations neglected)."""
+        rho, alpha = self.particles_per_cell, self.rotation_angle
+        denominator = (4 - 2 * math.cos(alpha) - 2 * math.cos(2 * alpha)) * (rho - 1)
+        prefactor = self.kT * self.collision_time * rho / self.cell_size**3
+        return prefactor * (5 * rho / denominator - 0.5)
+
+    def shear_viscosity(self) -> float:
+        """η = η_kin + η_coll (eq. 6)."""
+        return self.kinetic_viscosity() + self.collisional_viscosity()
+
+    def kinematic_viscosity(self) -> float:
+        """ν = η/ϱ of eq. 6 (what the decay of transverse momentum measures)."""
+        return self.shear_viscosity() / self.mass_density
 
 
 def center_of_mass_vacf(n, decay_factor: float, kT: float, chain_mass: float):

@@ -1,0 +1,34 @@
+"""Small MPCD scenes shared by the MPCD tests."""
+
+
+def polymer_solution(chains=8, beads=10, solvent=1000, seed=3, **sections) -> dict:
+    """Gaussian chains (Hookean H = 3 k_BT/l², l = 1; seed eq. 3) of monomers of mass
+    M = ρm = 5 in an SRD solvent of ρ = 5 in a 6³ box, h = 0.1, h_p = 0.01, float64.
+    `sections` replace whole sections, or merge into "solvent" and "output"."""
+    data = {
+        "seed": seed,
+        "precision": "float64",
+        "box": {"lengths": [6, 6, 6]},
+        "particles": {
+            "density": 5.0,
+            "species": [
+                {"name": "solvent", "count": solvent},
+                {"name": "monomer", "count": chains * beads, "mass": 5.0},
+            ],
+        },
+        "solvent": {"method": "mpcd", "collision_time": 0.1},
+        "integrator": {"dt": 0.01},
+        "polymers": [
+            {
+                "species": "monomer",
+                "beads": beads,
+                "bond": {"law": "hookean", "spring_constant": 3.0},
+            }
+        ],
+    }
+    for name, value in sections.items():
+        if name == "solvent":
+            data["solvent"].update(value)
+        else:
+            data[name] = value
+    return data
