@@ -10,6 +10,8 @@ Laws (H, K, k: spring constants in k_BT/r_c²; Q0, R0, r_eq, σ: lengths in r_c)
     hookean       T = H Q,  U = ½ H Q²                            (thesis eq. 2.25)
     fraenkel      T = K (Q − r_eq),  U = ½ K (Q − r_eq)²           (a harmonic bond with
                   rest length; Mussawisade et al. eq. 4 with κ = K, l = r_eq)
+    harmonic      the same law under the name MD codes use (note LAMMPS's
+                  `bond_style harmonic` writes U = K (r − r0)², i.e. its K is ½ of ours)
     fene          T = H Q / (1 − Q²/Q0²),
                   U = −½ H Q0² ln(1 − Q²/Q0²)              (Warner; thesis eqs. 2.26, 4.2)
     fene_log_wca  U = −½ k R0² ln(1 − Q²/R0²) + 4ε[(σ/Q)¹² − (σ/Q)⁶ + ¼] for Q < 2^{1/6}σ
@@ -21,6 +23,7 @@ evaluated at a floor of the denominator (finite), and `overstretched` reports it
 that the driver stops with a message instead of producing NaNs.
 """
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -31,7 +34,7 @@ import jax.numpy as jnp
 # flagged and the run stops at the end of the chunk).
 FENE_DENOMINATOR_FLOOR = 1e-6
 
-BOND_LAWS = ("hookean", "fraenkel", "fene", "fene_log_wca")
+BOND_LAWS = ("hookean", "fraenkel", "harmonic", "fene", "fene_log_wca")
 
 
 @dataclass(frozen=True)
@@ -173,8 +176,9 @@ def bond_law(parameters: dict, kT: float) -> BondLaw:
     name = parameters["law"]
     if name == "hookean":
         return hookean(parameters["spring_constant"], kT)
-    if name == "fraenkel":
-        return fraenkel(parameters["spring_constant"], parameters["rest_length"], kT)
+    if name in ("fraenkel", "harmonic"):
+        law = fraenkel(parameters["spring_constant"], parameters["rest_length"], kT)
+        return dataclasses.replace(law, name=name)
     if name == "fene":
         return fene(parameters["spring_constant"], parameters["max_extension"], kT)
     if name == "fene_log_wca":

@@ -13,6 +13,10 @@ import numpy as np
 
 from jaxdpd import driver
 from jaxdpd.io.h5md import H5MDWriter
+from jaxdpd.observables.chain_correlators import (
+    center_of_mass_diffusion,
+    chain_correlations,
+)
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.simulation import build
@@ -127,6 +131,7 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
         # Fit the neighbour buffers to the equilibrated configuration: a random
         # start has ideal-gas density fluctuations, a DPD liquid far smaller ones.
         state = simulation.reallocate(state, None)
+    state = simulation.init_observers(state)  # correlations of the production run only
     path = output_path if output_path is not None else scene.output.path
     writer = H5MDWriter(path, scene) if path else None
     rdf = None
@@ -165,10 +170,16 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
         bar.finish()
         series = {name: np.concatenate(parts) for name, parts in collected.items()}
         rdf_result = rdf.result() if rdf is not None and rdf.samples else None
+        correlations = {}
+        if state.observers is not None:
+            interval = scene.output.correlator_every * scene.step_time
+            correlations = chain_correlations(state.observers, interval)
         if writer is not None:
             writer.write_checkpoint(state, reason="end of run")
             if rdf_result is not None:
                 writer.write_rdf(*rdf_result, rdf.samples)
+            for name, (lag_times, values) in correlations.items():
+                writer.write_correlation(name, lag_times, values)
     finally:
         if writer is not None:
             writer.close()
@@ -176,6 +187,6 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
     if len(chunk_ends) > 1:
         (t0, s0), (t1, s1) = chunk_ends[0], chunk_ends[-1]
         summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-    summary.averages = _averages(series)
+    summary.averages = _averages(series) | center_of_mass_diffusion(correlations)
     summary.references = ideal_references(simulation.blocks, scene.solvent.kT)
     return summary

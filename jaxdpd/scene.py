@@ -34,8 +34,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
-                law = "hookean" (spring_constant) | "fraenkel" (spring_constant,
-                rest_length) | "fene" (spring_constant, max_extension) |
+                law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
+                (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
                 wca_sigma = 1); dpd and mpcd solvents (with mpcd the chained species
                 must be adjacent in particles.species)
@@ -44,10 +44,11 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation", "transverse_current"}; rdf_bins,
-                rdf_max; current_modes (transverse currents at k = 2πn/L, n = 1 ..
-                current_modes; cubic boxes);
-                trajectory_every (0 = never)
+                "pressure", "rdf", "conformation", "dynamics", "transverse_current"};
+                rdf_bins, rdf_max; trajectory_every (0 = never); correlator_every ≥ 1
+                (steps between samples of the "dynamics" correlators),
+                correlator_levels ≥ 1; current_modes ≥ 1 (transverse currents at
+                k = 2πn/L, n = 1 .. current_modes; cubic boxes)
 """
 
 import json
@@ -72,7 +73,15 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "transverse_current")
+OBSERVABLES = (
+    "temperature",
+    "pressure",
+    "rdf",
+    "conformation",
+    "dynamics",
+    "transverse_current",
+)
+POLYMER_OBSERVABLES = ("conformation", "dynamics")
 
 
 @dataclass(frozen=True)
@@ -195,6 +204,8 @@ class Output:
     current_modes: int = 3
     rdf_max: float = 3.0
     trajectory_every: int = 0
+    correlator_every: int = 10
+    correlator_levels: int = 12
 
 
 @dataclass(frozen=True)
@@ -290,11 +301,12 @@ class Scene:
             _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), lengths, run.chunk)
-        if "conformation" in output.observables and not polymers:
-            raise ValueError(
-                "output.observables: 'conformation' measures polymers; add a [[polymers]] "
-                "section or remove it"
-            )
+        for name in POLYMER_OBSERVABLES:
+            if name in output.observables and not polymers:
+                raise ValueError(
+                    f"output.observables: {name!r} measures polymers; add a [[polymers]] "
+                    "section or remove it"
+                )
         return cls(
             seed=seed,
             precision=precision,
@@ -628,6 +640,7 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
 BOND_PARAMETERS = {
     "hookean": {"spring_constant": REQUIRED},
     "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
+    "harmonic": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
     "fene": {"spring_constant": REQUIRED, "max_extension": REQUIRED},
     "fene_log_wca": {
         "spring_constant": REQUIRED,
@@ -772,7 +785,16 @@ def _read_run(section) -> Run:
 def _read_output(section, lengths, chunk: int) -> Output:
     check_keys(
         section,
-        ("path", "observables", "rdf_bins", "rdf_max", "trajectory_every", "current_modes"),
+        (
+            "path",
+            "observables",
+            "rdf_bins",
+            "rdf_max",
+            "trajectory_every",
+            "correlator_every",
+            "correlator_levels",
+            "current_modes",
+        ),
         "output",
     )
     observables = read_list(section, "observables", "output", ["temperature", "pressure"])
@@ -805,4 +827,10 @@ def _read_output(section, lengths, chunk: int) -> Output:
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
         trajectory_every=trajectory_every,
+        correlator_every=read_number(
+            section, "correlator_every", "output", 10, minimum=1, integer=True
+        ),
+        correlator_levels=read_number(
+            section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
+        ),
     )

@@ -21,6 +21,11 @@ from jaxdpd.boxes import PeriodicBox
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
 from jaxdpd.mpcd.step import mpcd_step
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.observables.chain_correlators import (
+    init_chain_correlators,
+    sample_every,
+    update_chain_correlators,
+)
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
@@ -60,6 +65,8 @@ class Simulation:
         reallocate: `reallocate(state, (pairs, cell_occupancy)) -> state` with
             neighbour buffers re-sized from the state's positions to hold at least
             the given needs (host side, after an overflow).
+        init_observers: `init_observers(state) -> state` with empty on-device
+            accumulators (`state.observers`), e.g. to discard the equilibration.
     """
 
     scene: Scene
@@ -71,6 +78,7 @@ class Simulation:
     init_fn: Callable
     step_fn: Callable
     reallocate: Callable
+    init_observers: Callable
 
 
 def pair_terms(scene: Scene, dtype) -> list:
@@ -233,7 +241,25 @@ def build(scene: Scene) -> Simulation:
             samples["transverse_current"] = transverse_currents(
                 state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
             )
+        if "dynamics" in observables:
+            observers = sample_every(
+                state.step,
+                scene.output.correlator_every,
+                state.observers,
+                lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
+            )
+            state = state.set(observers=observers)
         return state, samples
+
+    def init_observers(state):
+        """The state with empty on-device accumulators (e.g. after equilibration)."""
+        if "dynamics" not in observables:
+            return state
+        return state.set(
+            observers=init_chain_correlators(
+                box, state.positions, state.image, blocks, scene.output.correlator_levels
+            )
+        )
 
     def allocate_pairs(positions, minimum=None):
         if search is None:
@@ -256,6 +282,7 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
         )
+        state = init_observers(state)
         if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
             rows = slice(first, stop)
             sub = state.set(image=image[rows], species=species[rows])
@@ -273,7 +300,9 @@ def build(scene: Scene) -> Simulation:
     def reallocate(state, minimum):
         return state.set(pair_list=allocate_pairs(state.positions, minimum))
 
-    return Simulation(scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate)
+    return Simulation(
+        scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate, init_observers
+    )
 
 
 def _empty_pair_list(positions):

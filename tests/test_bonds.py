@@ -103,3 +103,14 @@ def test_placement_lengths():
     assert LAWS["hookean"].placement_length == pytest.approx(np.sqrt(1.5))
     assert LAWS["fraenkel"].placement_length == 0.8
     assert 0.95 < LAWS["fene_log_wca"].placement_length < 0.98
+
+
+def test_harmonic_is_the_fraenkel_law_under_its_md_name():
+    """U = ½ k (Q − r0)² under both names (jaxdpd.bonds docstring)."""
+    parameters = {"spring_constant": 30.0, "rest_length": 0.8}
+    harmonic = bonds.bond_law({"law": "harmonic", **parameters}, kT=1.0)
+    fraenkel = bonds.bond_law({"law": "fraenkel", **parameters}, kT=1.0)
+    q_sq = jnp.linspace(0.1, 2.0, 7)
+    assert harmonic.name == "harmonic"
+    np.testing.assert_array_equal(harmonic.stiffness(q_sq), fraenkel.stiffness(q_sq))
+    np.testing.assert_allclose(harmonic.energy(jnp.asarray([1.0])), 0.5 * 30.0 * 0.2**2)

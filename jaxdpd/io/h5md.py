@@ -9,6 +9,8 @@ Layout written:
                                output.trajectory_every steps)
     /observables/<name>/{step,time,value}   per-step time series
     /observables/rdf/{r,g}     radial distribution (fixed, rewritten at the end)
+    /observables/<species>/<g1|g2|g3|end_to_end_acf>/{lag_time,value,per_element}
+                               on-device time correlations (written at the end)
     /checkpoint                the full state of the last good step (restart)
 
 Data is flushed after every chunk, so an interrupted run leaves a readable file.
@@ -114,6 +116,18 @@ class H5MDWriter:
         group.create_dataset("r", data=r)
         group.create_dataset("g", data=g)
         group.attrs["samples"] = samples
+
+    def write_correlation(self, name: str, lag_times, values) -> None:
+        """(Re)write a time correlation: `observables/<name>/{lag_time,value}`, the
+        value averaged over its chains (and beads), plus `per_element` (K, C[, M])."""
+        path = f"observables/{name}"
+        if path in self.file:
+            del self.file[path]
+        group = self.file.create_group(path)
+        values = np.asarray(values)
+        group.create_dataset("lag_time", data=np.asarray(lag_times, np.float64))
+        group.create_dataset("value", data=values.reshape(len(values), -1).mean(axis=1))
+        group.create_dataset("per_element", data=values)
 
     def write_checkpoint(self, state, reason: str = "") -> None:
         """Store the full state (replacing the previous checkpoint)."""
