@@ -1,10 +1,10 @@
 """Small MPCD scenes shared by the MPCD tests."""
 
 
-def polymer_solution(chains=8, beads=10, solvent=1000, seed=3, **sections) -> dict:
+def polymer_solution(chains=8, beads=10, solvent_particles=1000, seed=3, **sections) -> dict:
     """Gaussian chains (Hookean H = 3 k_BT/l², l = 1; seed eq. 3) of monomers of mass
     M = ρm = 5 in an SRD solvent of ρ = 5 in a 6³ box, h = 0.1, h_p = 0.01, float64.
-    `sections` replace whole sections, or merge into "solvent" and "output"."""
+    `sections` replace whole sections, except "solvent", which they update."""
     data = {
         "seed": seed,
         "precision": "float64",
@@ -12,7 +12,7 @@ def polymer_solution(chains=8, beads=10, solvent=1000, seed=3, **sections) -> di
         "particles": {
             "density": 5.0,
             "species": [
-                {"name": "solvent", "count": solvent},
+                {"name": "solvent", "count": solvent_particles},
                 {"name": "monomer", "count": chains * beads, "mass": 5.0},
             ],
         },

@@ -130,7 +130,7 @@ def gaussian_chain_scene(steps_per_chunk=500):
         polymer_solution(
             chains=20,
             beads=5,
-            solvent=980,
+            solvent_particles=980,
             seed=4,
             output={"observables": ["temperature", "conformation"]},
             run={"chunk": steps_per_chunk},
