@@ -22,6 +22,7 @@ import jax.numpy as jnp
 
 from jaxdpd import noise
 from jaxdpd.mpcd.cells import bin_particles, cell_totals, grid_shift
+from jaxdpd.trigonometry import sincos_turns
 
 # Bit streams of the collision key: rotation axes (per cell, or per particle in the
 # Rouse variant) and the thermostat's Gaussian draws (per particle).  The grid shift
@@ -49,8 +50,8 @@ def random_axes(key, sites, dtype):
     )
     cos_theta = 2 * u1 - 1
     sin_theta = jnp.sqrt(jnp.maximum(1 - cos_theta * cos_theta, 0))
-    phi = 2 * jnp.pi * u2
-    return jnp.stack([sin_theta * jnp.cos(phi), sin_theta * jnp.sin(phi), cos_theta], axis=-1)
+    sin_phi, cos_phi = sincos_turns(u2)  # φ = 2π u₂
+    return jnp.stack([sin_theta * cos_phi, sin_theta * sin_phi, cos_theta], axis=-1)
 
 
 def rotate(vectors, axes, cos_angle, sin_angle):

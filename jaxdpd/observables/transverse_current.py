@@ -25,48 +25,14 @@ Errors and their control:
   jackknife gives the standard errors.
 """
 
-import math
-
 import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.observables.dynamics import time_autocorrelation
+from jaxdpd.trigonometry import sincos_turns
 
 # (velocity component a, wave-vector axis b), a ≠ b.
 TRANSVERSE_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
-
-
-# Taylor coefficients (−1)^k / (2k+1)! and (−1)^k / (2k)! up to φ¹⁵ and φ¹⁴: on
-# |φ| ≤ π/4 the truncation error is below 3·10⁻¹⁴ (float64 round-off scale).
-_SINE_TERMS = tuple((-1) ** k / math.factorial(2 * k + 1) for k in range(8))
-_COSINE_TERMS = tuple((-1) ** k / math.factorial(2 * k) for k in range(8))
-
-
-def sincos_turns(turns):
-    """sin(2π t) and cos(2π t), elementwise, by quadrant reduction and Taylor series.
-
-    XLA's CPU sine and cosine cost ~15× a fused polynomial; this evaluates the phase
-    factors of the transverse currents at the price of a few multiply-adds.
-
-    Args:
-        turns: array t (any real values; float32 or float64, kept).
-    Returns:
-        (sin 2πt, cos 2πt), each to within a few round-off units of `turns`' dtype.
-    """
-    quarter_turns = 4 * (turns - jnp.round(turns))  # in [−2, 2]
-    quadrant = jnp.round(quarter_turns)
-    angle = (quarter_turns - quadrant) * (jnp.pi / 2)  # φ in [−π/4, π/4]
-    angle_sq = angle * angle
-    sine = cosine = 0
-    for s_term, c_term in zip(reversed(_SINE_TERMS), reversed(_COSINE_TERMS), strict=True):
-        sine = sine * angle_sq + s_term
-        cosine = cosine * angle_sq + c_term
-    sine = sine * angle
-    # sin(φ + qπ/2), cos(φ + qπ/2) for q mod 4 = 0, 1, 2, 3.
-    q = jnp.mod(quadrant.astype(jnp.int32), 4)
-    rotated_sine = jnp.select([q == 0, q == 1, q == 2], [sine, cosine, -sine], -cosine)
-    rotated_cosine = jnp.select([q == 0, q == 1, q == 2], [cosine, -sine, -cosine], sine)
-    return rotated_sine, rotated_cosine
 
 
 def _phase_factors(coordinate, length: float, n_modes: int):
