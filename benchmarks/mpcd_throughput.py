@@ -93,7 +93,7 @@ def measure(n: int, precision: str, steps: int) -> list[dict]:
         start = time.perf_counter()
         for _ in range(steps):
             positions, velocities = numpy_step(
-                positions, velocities, rng, scene.box.lengths[0], dtype
+                positions, velocities, rng, round(scene.box.lengths[0]), dtype
             )
         numpy_seconds.append(time.perf_counter() - start)
     if int(state.flags):
