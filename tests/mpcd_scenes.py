@@ -1,16 +1,19 @@
 """Small MPCD scenes shared by the MPCD tests."""
 
 
-def polymer_solution(chains=8, beads=10, solvent_particles=1000, seed=3, **sections) -> dict:
+def polymer_solution(
+    chains=8, beads=10, solvent_particles=1000, edge=6, seed=3, **sections
+) -> dict:
     """Gaussian chains (Hookean H = 3 k_BT/l², l = 1; seed eq. 3) of monomers of mass
-    M = ρm = 5 in an SRD solvent of ρ = 5 in a 6³ box, h = 0.1, h_p = 0.01, float64.
+    M = ρm = 5 in an SRD solvent in a box of edge `edge` (ρ = 5 per cell with the
+    default counts), h = 0.1, h_p = 0.01, float64.
     `sections` replace whole sections, except "solvent", which they update."""
     data = {
         "seed": seed,
         "precision": "float64",
-        "box": {"lengths": [6, 6, 6]},
+        "box": {"lengths": [edge] * 3},
         "particles": {
-            "density": 5.0,
+            "count": solvent_particles + chains * beads,
             "species": [
                 {"name": "solvent", "count": solvent_particles},
                 {"name": "monomer", "count": chains * beads, "mass": 5.0},
