@@ -213,7 +213,7 @@ def chain_bond_forces(box, positions, image, law: BondLaw, with_virial: bool):
     """Spring forces of linear chains stored bead after bead.
 
     Args:
-        box: the periodic box (spring vectors by minimum image, thesis eq. 3.4).
+        box: the (bound) box; spring vectors by minimum image (thesis eq. 3.4).
         positions: (C, M, 3) wrapped bead positions of C chains of M beads.
         image: (C, M, 3) int32 image counters of the beads.
         law: the bond law.
@@ -223,9 +223,7 @@ def chain_bond_forces(box, positions, image, law: BondLaw, with_virial: bool):
     """
     separation = positions[:, 1:] - positions[:, :-1]
     springs = box.minimum_image_vectors(separation)
-    lengths = box.lengths_array(positions.dtype)
-    by_image = separation + (image[:, 1:] - image[:, :-1]).astype(positions.dtype) * lengths
-    past_half_box = jnp.any(jnp.abs(by_image - springs) > 0.5 * lengths)
+    past_half_box = box.springs_past_half_box(separation, springs, image[:, 1:] - image[:, :-1])
     q_sq = jnp.sum(springs * springs, axis=-1)
     pull = law.stiffness(q_sq)[..., None] * springs
     zeros = jnp.zeros_like(pull[:, :1])

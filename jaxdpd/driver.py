@@ -59,7 +59,7 @@ def run_chunk(simulation, state, length: int):
                 f"step {int(state.step)}–{int(state.step) + length}: {errors.describe(flags)} "
                 f"(scene: integrator.dt = {simulation.scene.integrator.dt})"
             )
-        return new_state, {k: np.asarray(v) for k, v in samples.items()}, attempt
+        return new_state, jax.tree.map(np.asarray, samples), attempt
     raise AssertionError("unreachable")
 
 

@@ -9,7 +9,7 @@ error bits of its own (e.g. an overstretched spring).
 import jax
 import jax.numpy as jnp
 
-from jaxdpd import errors, noise
+from jaxdpd import errors, flows, noise
 
 
 def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
@@ -48,6 +48,11 @@ def modified_velocity_verlet(
     DPD at Δt = 0.04.  The pair noise of step n+1 is keyed by n+1.  `kT` is the
     temperature scale of the runaway check (see jaxdpd.errors).  `masses` is the
     (N,) array of particle masses, or None for unit masses (no division traced).
+
+    In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
+    terms of jaxdpd.flows are added: streaming in the position update, −L c in
+    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update;
+    the box state advances with the step.  A box at rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
@@ -56,13 +61,30 @@ def modified_velocity_verlet(
         return forces if masses is None else forces / masses[:, None]
 
     def step(state):
+        bound = box.bind(state.box_state)
         accelerations = acceleration(state.forces)
-        moved = state.positions + dt_ * state.velocities + (0.5 * dt_ * dt_) * accelerations
-        positions, image = box.wrap(moved, state.image)
-        predicted = state.velocities + (lam * dt_) * accelerations
-        advanced = state.set(positions=positions, image=image, step=state.step + 1)
+        displacement_acceleration = accelerations
+        curvature = flows.streaming_curvature(bound, state.positions)
+        if curvature is not None:
+            displacement_acceleration = accelerations + curvature
+        drift = flows.drift_velocity(bound, state.positions, state.velocities)
+        moved = state.positions + dt_ * drift + (0.5 * dt_ * dt_) * displacement_acceleration
+        box_state = box.advance(state.box_state, state.time, dt_)
+        new_bound = box.bind(box_state)
+        positions, image = new_bound.wrap(moved, state.image)
+        rate_of_change = accelerations
+        drag = flows.sllod_drag(bound, state.velocities)
+        if drag is not None:
+            rate_of_change = accelerations + drag
+        predicted = state.velocities + (lam * dt_) * rate_of_change
+        advanced = state.set(
+            positions=positions, image=image, box_state=box_state, step=state.step + 1
+        )
         new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
-        velocities = state.velocities + (0.5 * dt_) * (accelerations + acceleration(new_forces))
+        right_hand_side = state.velocities + (0.5 * dt_) * (
+            rate_of_change + acceleration(new_forces)
+        )
+        velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
@@ -76,12 +98,13 @@ def modified_velocity_verlet(
 
 
 def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
-    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
+    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses,
+    a box at rest).
 
         v_i ← v_i + Σ_j Ω_ij e_ij,     r_i ← r_i + v_i δt.
 
-    The recorded virial is that of the collision impulses divided by δt (the mean
-    force they exert over the step).
+    The recorded virial parts are those of the collision impulses divided by δt (the
+    mean force they exert over the step).
     """
     dt_ = jnp.asarray(dt, dtype)
 
@@ -94,13 +117,38 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
             velocities=velocities,
             image=image,
             pair_list=pair_list,
-            virial=virial / dt_,
+            virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, pair_list, kT, bits),
         )
 
     return step
+
+
+def free_flight_stress(gradient, velocities, weights, duration):
+    """Σ_i w_i [⟨c c^T⟩_flight − c c^T]: how the peculiar momentum flux averaged over a
+    free flight of `duration` differs from its value at the start.
+
+    In a flow of gradient L a free particle keeps its laboratory velocity, so its
+    peculiar velocity drifts, c(t) = c − t L c (jaxdpd.flows), and the kinetic stress
+    it carries, time-averaged over the flight h, is
+    ⟨c c^T⟩ = c c^T − (h/2)(L c c^T + c c^T L^T) + (h²/3) L c c^T L^T.  For MPCD the
+    correction is of the order of the kinetic stress itself (in shear its xy part,
+    −(h/2) γ̇ ρ k_BT per volume, is the −½ of η_kin in Mussawisade et al. eq. 6).
+
+    Args:
+        gradient: (3, 3) velocity gradient L.
+        velocities: (N, 3) peculiar velocities at the start of the flight.
+        weights: (N,) masses of the particles in free flight (0 for the others).
+        duration: h.
+    Returns:
+        (3, 3) tensor, added to the kinetic one as the virial part "streaming".
+    """
+    weighted = weights[:, None] * velocities
+    dyad = velocities.T @ weighted  # Σ w c c^T
+    drifted = gradient @ dyad
+    return -0.5 * duration * (drifted + drifted.T) + (duration**2 / 3) * drifted @ gradient.T
 
 
 def mpcd_cycle(
@@ -113,24 +161,30 @@ def mpcd_cycle(
     kT: float,
     dtype,
     masses=None,
+    with_virial: bool = False,
 ):
     """One MPCD cycle (Mussawisade et al. 2005, §II): streaming over the collision time
     h, then a collision.
 
     Streaming: every particle outside the monomer range moves ballistically,
-    r ← r + h v (eq. 1); the monomers [first, stop) instead take `substeps` steps of
-    `monomer_step` (velocity Verlet with h_p = h/substeps under their bonded and pair
-    forces) on a state that holds their rows only.  Collision: `collide(positions,
-    velocities, key) -> (velocities, collisional virial)` with the key of collision
-    n + 1 (`noise.step_key(seed, n + 1)`, n the step counter), so the grid shift and
-    rotation axes are functions of (seed, collision index) alone.
+    r ← r + h v (eq. 1); in a sheared box v = c + u(r) and the peculiar velocity
+    becomes c − h L v (SLLOD without forces, exact for free flight; jaxdpd.flows).
+    The monomers [first, stop) instead take `substeps` steps of `monomer_step`
+    (velocity Verlet with h_p = h/substeps under their bonded and pair forces) on a
+    state that holds their rows only.  Collision: `collide(bound box, positions,
+    velocities, key) -> (velocities, collisional virial or None)` with the key of
+    collision n + 1 (`noise.step_key(seed, n + 1)`, n the step counter), so the grid
+    shift and rotation axes are functions of (seed, collision index) alone.
 
-    The recorded virial is the collisional one divided by h (the mean force over the
-    cycle, as for the Hoogerbrugge–Koelman impulses) plus the monomers' force virial
-    at the end of the streaming.
+    Recorded virial parts (`with_virial`): the monomers' force parts at the end of
+    the streaming; "collision", the collision's virial divided by h (the mean force
+    over the cycle, as for the Hoogerbrugge–Koelman impulses); in a flowing box
+    "streaming", the free-flight drift of the solvent's kinetic stress
+    (`free_flight_stress`; the monomers' kinetic stress is sampled at the collision).
 
     Args:
-        box: the box (its `wrap` moves particles across the boundaries).
+        box: the static box (bound to the state's box_state; its `wrap` moves
+            particles across the boundaries).
         collision_time: h.
         substeps: h/h_p.
         monomers: (first, stop) index range of the monomers, or None.
@@ -140,6 +194,7 @@ def mpcd_cycle(
         kT: temperature scale of the runaway check.
         dtype: floating dtype.
         masses: (N,) masses or None.
+        with_virial: record the virial parts.
     Returns:
         `step(state) -> state`, one collision per step; time advances by h.
     """
@@ -153,13 +208,39 @@ def mpcd_cycle(
             forces=state.forces[rows],
             image=state.image[rows],
             species=state.species[rows],
+            virial={},
         )
+        # The loop carries the virial parts the force kernel records (zeros at first).
+        parts = jax.eval_shape(monomer_step, sub).virial
+        sub = sub.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
         return jax.lax.fori_loop(0, substeps, lambda _, s: monomer_step(s), sub)
 
+    def free_weights(state):
+        """Masses of the particles in free flight (zero for the monomers)."""
+        weights = jnp.ones(state.velocities.shape[0], dtype) if masses is None else masses
+        if monomers is None:
+            return weights
+        return weights.at[monomers[0] : monomers[1]].set(0)
+
+    def stream(bound, new_bound, positions, velocities):
+        """Free flight over h: positions (unwrapped) and peculiar velocities."""
+        moved = positions + h * flows.drift_velocity(bound, positions, velocities)
+        curvature = flows.streaming_curvature(bound, positions)
+        if curvature is not None:
+            moved = moved + (0.5 * h * h) * curvature
+        drag = flows.sllod_drag(bound, velocities)
+        if drag is None:
+            return moved, velocities
+        return moved, flows.implicit_sllod_velocity(new_bound, velocities + 0.5 * h * drag, h)
+
     def step(state):
-        positions, image = box.wrap(state.positions + h * state.velocities, state.image)
-        velocities, forces = state.velocities, state.forces
-        virial, pair_list, bits = jnp.zeros((3, 3), dtype), state.pair_list, jnp.int32(0)
+        bound = box.bind(state.box_state)
+        box_state = box.advance(state.box_state, state.time, h)
+        new_bound = box.bind(box_state)
+        moved, velocities = stream(bound, new_bound, state.positions, state.velocities)
+        positions, image = new_bound.wrap(moved, state.image)
+        forces, virial = state.forces, {}
+        pair_list, bits = state.pair_list, jnp.int32(0)
         if monomers is not None:
             first, stop = monomers
             moved = stream_monomers(state, first, stop)
@@ -167,18 +248,25 @@ def mpcd_cycle(
             image = image.at[first:stop].set(moved.image)
             velocities = velocities.at[first:stop].set(moved.velocities)
             forces = forces.at[first:stop].set(moved.forces)
-            virial, pair_list, bits = moved.virial, moved.pair_list, moved.flags
+            virial, pair_list, bits = dict(moved.virial), moved.pair_list, moved.flags
         collision = state.step + 1
         velocities, collision_virial = collide(
-            positions, velocities, noise.step_key(state.seed, collision)
+            new_bound, positions, velocities, noise.step_key(state.seed, collision)
         )
+        if collision_virial is not None:
+            virial["collision"] = collision_virial / h
+        if with_virial and bound.velocity_gradient is not None:
+            virial["streaming"] = free_flight_stress(
+                bound.velocity_gradient, state.velocities, free_weights(state), h
+            )
         return state.set(
             positions=positions,
             velocities=velocities,
             forces=forces,
             image=image,
             pair_list=pair_list,
-            virial=virial + collision_virial / h,
+            virial=virial,
+            box_state=box_state,
             step=collision,
             time=state.time + h,
             flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),

@@ -34,12 +34,16 @@ def soft_repulsion_term(a_matrix, dtype):
         a_matrix: (S, S) symmetric nested sequence of a_ij.
         dtype: floating dtype of the simulation.
     Returns:
-        `term(geometry, context) -> magnitudes`, with `context.species` (N,) int32.
+        `term(geometry, context) -> {"conservative": magnitudes}`, with
+        `context.species` (N,) int32.
     """
     table = jnp.asarray(a_matrix, dtype)
     if table.shape == (1, 1):
         a = table[0, 0]
-        return lambda geometry, context: soft_repulsion(geometry.weight, a)
-    return lambda geometry, context: soft_repulsion(
-        geometry.weight, geometry.gather_pair(table, context.species)
-    )
+        return lambda geometry, context: {"conservative": soft_repulsion(geometry.weight, a)}
+
+    def term(geometry, context):
+        a = geometry.gather_pair(table, context.species)
+        return {"conservative": soft_repulsion(geometry.weight, a)}
+
+    return term

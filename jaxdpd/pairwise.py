@@ -3,8 +3,8 @@
 Every pair law in jaxdpd (forces, thermostat forces, impulses) is central: it acts
 along the unit vector e_ij = (r_i − r_j)/r_ij with a scalar magnitude m_ij (positive
 = repulsive).  `pair_geometry` measures the pairs once; `accumulate` turns the
-magnitudes into per-particle vectors Σ_j m_ij e_ij and, on request, the virial
-Σ_pairs r_ij ⊗ m_ij e_ij.  Components are handled as separate arrays (structure of
+magnitudes into per-particle vectors Σ_j m_ij e_ij and `pair_virial` gives a law's
+virial Σ_pairs r_ij ⊗ m_ij e_ij.  Components are handled as separate arrays (structure of
 arrays), which XLA vectorises well on CPU.
 """
 
@@ -27,6 +27,8 @@ class PairGeometry:
         weight: 1 − r/r_c within the cut-off, else 0 (the standard DPD weight).
         n_particles: N.
         half: True when each pair is listed once.
+        streaming: (L r_ij)·e_ij, the flow's part of the laboratory relative velocity
+            along the pair (thesis eq. 3.18), or None in a box at rest.
     """
 
     i: jnp.ndarray
@@ -38,6 +40,7 @@ class PairGeometry:
     weight: jnp.ndarray
     n_particles: int
     half: bool
+    streaming: jnp.ndarray | None = None
 
     def along_pair(self, per_particle):
         """(x_i − x_j)·e_ij for a per-particle vector field x of shape (N, 3)."""
@@ -46,6 +49,13 @@ class PairGeometry:
             component = per_particle[:, axis]
             total = total + (component[self.i] - component[self.j]) * self.separation[axis]
         return total * self.inverse_distance
+
+    def relative_velocity_along_pair(self, velocities):
+        """Laboratory relative velocity (v_i − v_j)·e_ij from stored (peculiar)
+        velocities: c_i − c_j plus the flow's L r_ij in a flowing box (thesis eq.
+        3.18).  Every velocity-dependent pair law reads its velocities here."""
+        along = self.along_pair(velocities)
+        return along if self.streaming is None else along + self.streaming
 
     def gather_pair(self, table, per_particle):
         """table[s_i, s_j] for per-particle integer labels s (e.g. species).
@@ -62,7 +72,8 @@ def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairG
     """Measure the pairs of `pair_list` in `box`.
 
     Args:
-        box: a box with `minimum_image(separation, axis)`.
+        box: a bound box (`separation`, and in flow `velocity_gradient` and
+            `streaming_along_pair`; see jaxdpd.boxes).
         positions: (N, 3) wrapped positions.
         pair_list: PairList with i, j (padded with N).
         cutoff: r_c; pairs at r ≥ r_c get `within = False`.
@@ -72,8 +83,8 @@ def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairG
     listed = pair_list.i < n
     i = jnp.where(listed, pair_list.i, 0)
     j = jnp.where(listed, pair_list.j, 0)
-    separation = tuple(
-        box.minimum_image(positions[:, axis][i] - positions[:, axis][j], axis) for axis in range(3)
+    separation = box.separation(
+        tuple(positions[:, axis][i] - positions[:, axis][j] for axis in range(3))
     )
     distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
     within = listed & (distance_sq < cutoff * cutoff) & (i != j)
@@ -81,33 +92,43 @@ def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairG
     inverse = jax.lax.rsqrt(safe_sq)
     distance = safe_sq * inverse
     weight = jnp.where(within, 1 - distance * (1.0 / cutoff), jnp.zeros_like(distance))
-    return PairGeometry(i, j, separation, distance, inverse, within, weight, n, half)
+    streaming = None
+    if box.velocity_gradient is not None:
+        streaming = box.streaming_along_pair(separation, inverse)
+    return PairGeometry(i, j, separation, distance, inverse, within, weight, n, half, streaming)
 
 
-def accumulate(geometry: PairGeometry, magnitude, with_virial: bool = False):
-    """Per-particle sums Σ_j m_ij e_ij and optionally the virial tensor.
+def _force_components(geometry: PairGeometry, magnitude):
+    """(m_ij e_ij,x, m_ij e_ij,y, m_ij e_ij,z) of every listed pair."""
+    scale = magnitude * geometry.inverse_distance
+    return [scale * s for s in geometry.separation]
+
+
+def accumulate(geometry: PairGeometry, magnitude):
+    """Per-particle sums Σ_j m_ij e_ij (forces, or impulses) of central pair laws.
 
     Args:
         geometry: from `pair_geometry`.
         magnitude: (P,) magnitudes m_ij (must be 0 where not `within`).
-        with_virial: also return W_ab = Σ_pairs (r_i − r_j)_a m_ij e_ij,b.
     Returns:
-        (N, 3) vectors, and the (3, 3) virial or None.
+        (N, 3) vectors.
     """
     n = geometry.n_particles
-    scale = magnitude * geometry.inverse_distance
-    components = [scale * s for s in geometry.separation]
     columns = []
-    for component in components:
+    for component in _force_components(geometry, magnitude):
         total = jax.ops.segment_sum(component, geometry.i, n)
         if geometry.half:
             total = total - jax.ops.segment_sum(component, geometry.j, n)
         columns.append(total)
-    vectors = jnp.stack(columns, axis=1)
-    if not with_virial:
-        return vectors, None
+    return jnp.stack(columns, axis=1)
+
+
+def pair_virial(geometry: PairGeometry, magnitude):
+    """Virial W_ab = Σ_pairs (r_i − r_j)_a m_ij e_ij,b of one pair law, (3, 3)
+    (thesis eq. 3.46, each pair counted once)."""
+    components = _force_components(geometry, magnitude)
     count = 1.0 if geometry.half else 0.5  # a full list sees every pair twice
     virial = jnp.stack(
         [jnp.stack([jnp.sum(sa * fb) for fb in components]) for sa in geometry.separation]
     )
-    return vectors, virial * count
+    return virial * count

@@ -77,7 +77,7 @@ def _averages(series: dict) -> dict:
             averages[name] = (float(values.mean()), float("nan"))
     tensor = series.get("pressure_tensor")
     if tensor is not None and len(tensor) >= 40:
-        for a, b, label in ((0, 1, "P_xy"), (0, 0, "P_xx"), (2, 2, "P_zz")):
+        for a, b, label in ((0, 1, "P_xy"), (1, 0, "P_yx"), (0, 0, "P_xx"), (2, 2, "P_zz")):
             mean, error = block_average(np.asarray(tensor[:, a, b], np.float64), n_blocks=20)
             averages[label] = (float(mean), float(error))
     return averages

@@ -9,7 +9,13 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     seed        integer in [0, 2³²)                     noise and initial state
     precision   "float32" | "float64"
     cutoff      r_c > 0 of all pair interactions        default 1
-    [box]       kind = "periodic"; lengths = [Lx, Ly, Lz] (optional, see particles)
+    [box]       kind = "periodic" | "lees_edwards" (follows from [flow] when not
+                given); lengths = [Lx, Ly, Lz] (optional, see particles)
+    [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
+                oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
+                needs a Lees–Edwards box and solvent.method "dpd" or "mpcd" (MPCD
+                shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress is not
+                symmetric)
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
@@ -39,16 +45,19 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
                 wca_sigma = 1); dpd and mpcd solvents (with mpcd the chained species
                 must be adjacent in particles.species)
+    [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
+                f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation", "dynamics", "transverse_current"};
-                rdf_bins, rdf_max; trajectory_every (0 = never); correlator_every ≥ 1
-                (steps between samples of the "dynamics" correlators),
-                correlator_levels ≥ 1; current_modes ≥ 1 (transverse currents at
-                k = 2πn/L, n = 1 .. current_modes; cubic boxes)
+                "pressure", "rdf", "conformation", "dynamics", "profile",
+                "transverse_current"}; rdf_bins, rdf_max; profile_bins ≥ 1 (slabs
+                along y); trajectory_every (0 = never); correlator_every ≥ 1 (steps
+                between samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
+                current_modes; cubic boxes)
 """
 
 import json
@@ -56,6 +65,7 @@ import math
 import tomllib
 from dataclasses import asdict, dataclass, field
 
+from jaxdpd.boxes import make_box
 from jaxdpd.mpcd.cells import collision_grid
 from jaxdpd.validation import (
     REQUIRED,
@@ -73,12 +83,17 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
+BOX_KINDS = ("periodic", "lees_edwards")
+FLOW_KINDS = ("shear",)
+BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
+FLOW_SOLVENTS = ("dpd", "mpcd")
 OBSERVABLES = (
     "temperature",
     "pressure",
     "rdf",
     "conformation",
     "dynamics",
+    "profile",
     "transverse_current",
 )
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
@@ -104,10 +119,25 @@ class Particles:
 
 @dataclass(frozen=True)
 class Box:
-    """Periodic box with resolved edge lengths."""
+    """The box: its kind and resolved edge lengths."""
 
     kind: str
     lengths: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Flow:
+    """An imposed homogeneous flow (SLLOD with flow-adapted boundaries).
+
+    Attributes:
+        kind: "shear".
+        shear_rate: γ̇ (its amplitude for an oscillatory shear), 1/time.
+        oscillation_frequency: ω of γ̇(t) = γ̇ cos(ω t), or None for steady shear.
+    """
+
+    kind: str
+    shear_rate: float
+    oscillation_frequency: float | None = None
 
 
 @dataclass(frozen=True)
@@ -168,6 +198,21 @@ class Polymer:
 
 
 @dataclass(frozen=True)
+class BodyForce:
+    """An external force on every particle (jaxdpd.forcing).
+
+    Attributes:
+        kind: "cosine": f_x = amplitude cos(2π waves y / L_y).
+        amplitude: F, force per particle.
+        waves: n, periods across the box along y.
+    """
+
+    kind: str
+    amplitude: float
+    waves: int = 1
+
+
+@dataclass(frozen=True)
 class Integrator:
     """Time step and the λ of the modified velocity-Verlet scheme (thesis eq. 2.10)."""
 
@@ -206,6 +251,7 @@ class Output:
     trajectory_every: int = 0
     correlator_every: int = 10
     correlator_levels: int = 12
+    profile_bins: int = 20
 
 
 @dataclass(frozen=True)
@@ -221,6 +267,8 @@ class Scene:
     pair: Pair | None
     integrator: Integrator
     polymers: tuple[Polymer, ...] = ()
+    flow: Flow | None = None
+    body_force: BodyForce | None = None
     neighbors: Neighbors = field(default_factory=Neighbors)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
@@ -256,6 +304,8 @@ class Scene:
                 "pair",
                 "integrator",
                 "polymers",
+                "flow",
+                "body_force",
                 "neighbors",
                 "run",
                 "output",
@@ -269,9 +319,15 @@ class Scene:
             raise ValueError(f"solvent: required section is missing; method: {SOLVENT_METHODS}")
         solvent = _read_solvent(data["solvent"])
         neighbors = _read_neighbors(data.get("neighbors", {}))
+        flow = _read_flow(data.get("flow"), solvent, neighbors)
         box_section = data.get("box", {})
         check_keys(box_section, ("kind", "lengths"), "box")
-        box_kind = read_choice(box_section, "kind", "box", ("periodic",), "periodic")
+        box_kind = read_choice(box_section, "kind", "box", BOX_KINDS, BOX_OF_FLOW[_kind(flow)])
+        if box_kind != BOX_OF_FLOW[_kind(flow)]:
+            raise ValueError(
+                f"box.kind = {box_kind!r} does not fit flow.kind = {_kind(flow)!r}: "
+                f"that flow needs box.kind = {BOX_OF_FLOW[_kind(flow)]!r} (or leave box.kind out)"
+            )
         lengths = _read_lengths(box_section)
         polymer_entries = _polymer_entries(data.get("polymers", []))
         chain_lengths = {
@@ -281,11 +337,14 @@ class Scene:
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
         list_cutoff = cutoff + neighbors.skin
-        for axis, length in zip("xyz", lengths, strict=True):
-            if not length > 2 * list_cutoff:
+        heights = make_box(box_kind, lengths, flow).cell_heights
+        for axis, length, height in zip("xyz", lengths, heights, strict=True):
+            if not height > 2 * list_cutoff:
+                tilted = f" (its thickness {height:.4g} at the largest shear tilt)"
                 raise ValueError(
-                    f"box.lengths: L_{axis} = {length:.4g} must exceed 2 (cutoff + "
-                    f"neighbors.skin) = {2 * list_cutoff:.4g}; enlarge the box or add particles"
+                    f"box.lengths: L_{axis} = {length:.4g}{tilted if height != length else ''} "
+                    f"must exceed 2 (cutoff + neighbors.skin) = {2 * list_cutoff:.4g}; "
+                    "enlarge the box or add particles"
                 )
         if solvent.method == "hoogerbrugge_koelman" and any(
             s.mass != 1.0 for s in particles.species
@@ -301,6 +360,11 @@ class Scene:
             _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), lengths, run.chunk)
+        if flow is not None and "dynamics" in output.observables:
+            raise ValueError(
+                "output.observables: 'dynamics' (mean-square displacements) needs a box at "
+                "rest; under flow, measure the chains with 'conformation'"
+            )
         for name in POLYMER_OBSERVABLES:
             if name in output.observables and not polymers:
                 raise ValueError(
@@ -317,6 +381,8 @@ class Scene:
             pair=pair,
             integrator=integrator,
             polymers=polymers,
+            flow=flow,
+            body_force=_read_body_force(data.get("body_force"), solvent),
             neighbors=neighbors,
             run=run,
             output=output,
@@ -368,6 +434,12 @@ class Scene:
         ]
         if not self.polymers:
             del data["polymers"]
+        if self.body_force is None:
+            del data["body_force"]
+        if self.flow is None:
+            del data["flow"]
+        elif self.flow.oscillation_frequency is None:
+            del data["flow"]["oscillation_frequency"]
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
         data["output"]["observables"] = list(self.output.observables)
@@ -479,6 +551,48 @@ def _read_solvent(section) -> Solvent:
         pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
         omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
         delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
+    )
+
+
+def _kind(flow: Flow | None) -> str | None:
+    return None if flow is None else flow.kind
+
+
+def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
+    if section is None:
+        return None
+    check_keys(section, ("kind", "shear_rate", "oscillation_frequency"), "flow")
+    kind = read_choice(section, "kind", "flow", FLOW_KINDS)
+    if solvent.method not in FLOW_SOLVENTS:
+        raise ValueError(
+            f"flow: solvent.method = {solvent.method!r} has no SLLOD integrator; use one "
+            f"of {list(FLOW_SOLVENTS)} or remove the [flow] section"
+        )
+    if neighbors.method != "cell_list":
+        raise ValueError(
+            "neighbors.method = 'jax_md': jax-md's lists know no Lees–Edwards boundary; "
+            "use neighbors.method = 'cell_list' with a [flow]"
+        )
+    shear_rate = read_number(section, "shear_rate", "flow")
+    frequency = read_number(
+        section, "oscillation_frequency", "flow", None, minimum=0, exclusive_minimum=True
+    )
+    return Flow(kind, shear_rate, frequency)
+
+
+def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
+    if section is None:
+        return None
+    check_keys(section, ("kind", "amplitude", "waves"), "body_force")
+    if solvent.method != "dpd":
+        raise ValueError(
+            f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
+            f"not {solvent.method!r}"
+        )
+    return BodyForce(
+        kind=read_choice(section, "kind", "body_force", ("cosine",)),
+        amplitude=read_number(section, "amplitude", "body_force"),
+        waves=read_number(section, "waves", "body_force", 1, minimum=1, integer=True),
     )
 
 
@@ -793,6 +907,7 @@ def _read_output(section, lengths, chunk: int) -> Output:
             "trajectory_every",
             "correlator_every",
             "correlator_levels",
+            "profile_bins",
             "current_modes",
         ),
         "output",
@@ -833,4 +948,5 @@ def _read_output(section, lengths, chunk: int) -> Output:
         correlator_levels=read_number(
             section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
         ),
+        profile_bins=read_number(section, "profile_bins", "output", 20, minimum=1, integer=True),
     )

@@ -2,9 +2,11 @@
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, without "pressure"
-no virial, without [[polymers]] no bond kernel, and with no pair term at all no
-neighbour search.  With an MPCD solvent only the monomers feel forces: the force
-kernel and its neighbour search cover their index range alone.
+no virial, without [[polymers]] no bond kernel, without [body_force] no external
+force, with no pair term at all no
+neighbour search, and in a box at rest (no [flow]) no flow arithmetic.  With an MPCD
+solvent only the monomers feel forces: the force kernel and its neighbour search
+cover their index range alone.
 """
 
 import dataclasses
@@ -17,7 +19,8 @@ import jax.numpy as jnp
 
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
-from jaxdpd.boxes import PeriodicBox
+from jaxdpd.boxes import make_box
+from jaxdpd.forcing import cosine_body_force
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
 from jaxdpd.mpcd.step import mpcd_step
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
@@ -27,10 +30,11 @@ from jaxdpd.observables.chain_correlators import (
     update_chain_correlators,
 )
 from jaxdpd.observables.chain_series import conformation_samples
+from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term
-from jaxdpd.pairwise import accumulate, pair_geometry
+from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
@@ -54,7 +58,7 @@ class Simulation:
 
     Attributes:
         scene: the scene it was built from.
-        box: the periodic box.
+        box: the static box (jaxdpd.boxes; bind it to a state's box_state).
         blocks: the polymer chain blocks (jaxdpd.topology.ChainBlock), maybe empty.
         dtype: floating dtype of positions, velocities and forces.
         masses: (N,) particle masses, or None when all are 1.
@@ -70,7 +74,7 @@ class Simulation:
     """
 
     scene: Scene
-    box: PeriodicBox
+    box: object
     blocks: tuple
     dtype: object
     masses: object
@@ -106,55 +110,63 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
-def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, dtype):
-    """The composed force kernel: the pair terms plus the springs of every chain block.
+def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, body_force):
+    """The composed force kernel: the pair terms, the body force and the springs of
+    every chain block.
 
     It acts on one contiguous range of particles: all of them, or the monomers of an
     MPCD scene (then the positions and state it is given hold those rows only, the
     neighbour search covers them alone and `blocks` index within the range).
 
     Args:
-        box: the periodic box.
+        box: the static box (bound to each state's box_state).
         terms: pair terms (`pair_terms`), maybe empty.
         search: the neighbour backend over the range (None without pair terms).
         blocks: ChainBlocks indexed within the range.
         cutoff: r_c of the pair terms.
-        with_virial: compute the virial (else zeros).
-        dtype: floating dtype.
+        with_virial: compute the virial parts (else none).
+        body_force: `body_force(positions) -> (N, 3)` or None.
     Returns:
-        `interactions(positions, velocities, state) -> (vectors, virial, pair_list,
-        error bits)`.
+        `interactions(positions, velocities, state) -> (vectors, virial parts
+        {name: (3, 3)}, pair_list, error bits)`.
     """
 
-    def pair_interactions(positions, velocities, state):
-        """Σ of the pair terms: per-particle vectors, virial, refreshed pair list."""
+    def pair_interactions(bound_box, positions, velocities, state):
+        """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
         if not terms:
-            zeros = jnp.zeros_like(positions)
-            return zeros, jnp.zeros((3, 3), dtype), state.pair_list
-        pair_list = search.update(positions, state.pair_list)
-        geometry = pair_geometry(box, positions, pair_list, cutoff, search.half)
+            return jnp.zeros_like(positions), {}, state.pair_list
+        pair_list = search.update(positions, state.pair_list, state.box_state)
+        geometry = pair_geometry(bound_box, positions, pair_list, cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
-        magnitude = sum(term(geometry, context) for term in terms)
-        vectors, virial = accumulate(geometry, magnitude, with_virial)
-        if virial is None:
-            virial = jnp.zeros((3, 3), dtype)
+        parts = {}
+        for term in terms:
+            parts.update(term(geometry, context))
+        vectors = accumulate(geometry, sum(parts.values()))
+        virial = {}
+        if with_virial:
+            virial = {name: pair_virial(geometry, m) for name, m in parts.items()}
         return vectors, virial, pair_list
 
     def interactions(positions, velocities, state):
-        """Pair terms plus the springs of every chain block.
+        """Pair terms plus the springs of every chain block, in the box of `state`.
 
         Returns:
-            (per-particle vectors, virial, refreshed pair list, error bits).
+            (per-particle vectors, virial parts {name: (3, 3)}, refreshed pair list,
+            error bits).
         """
-        vectors, virial, pair_list = pair_interactions(positions, velocities, state)
+        bound_box = box.bind(state.box_state)
+        vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
+        if body_force is not None:
+            vectors = vectors + body_force(positions)
         bits = jnp.asarray(0, jnp.int32)
         for block in blocks:
             bonded = chain_bond_forces(
-                box, block.take(positions), block.take(state.image), block.law, with_virial
+                bound_box, block.take(positions), block.take(state.image), block.law, with_virial
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
-            virial = virial + bonded.virial
+            if with_virial:
+                virial["bond"] = virial.get("bond", 0) + bonded.virial
             bits = (
                 bits
                 | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
@@ -195,13 +207,18 @@ def build(scene: Scene) -> Simulation:
     Cached per scene, so building an equal scene again reuses the compiled chunks.
     """
     dtype = jnp.dtype(scene.precision)
-    box = PeriodicBox(tuple(scene.box.lengths))
+    box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
     terms = pair_terms(scene, dtype)
     blocks = chain_blocks(scene)
     first, stop = force_range(scene, blocks)
     local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
+    body_force = None
+    if scene.body_force is not None:
+        body_force = cosine_body_force(
+            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
+        )
     search = None
     if terms:
         search = neighbor_search(
@@ -213,7 +230,9 @@ def build(scene: Scene) -> Simulation:
             scene.neighbors.format,
         )
 
-    interactions = force_kernel(box, terms, search, local_blocks, scene.cutoff, with_virial, dtype)
+    interactions = force_kernel(
+        box, terms, search, local_blocks, scene.cutoff, with_virial, body_force
+    )
 
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
@@ -235,8 +254,15 @@ def build(scene: Scene) -> Simulation:
     def step_fn(state):
         state = advance(state)
         samples = step_samples(observables, state, masses)
+        bound_box = box.bind(state.box_state)
         if "conformation" in observables:
-            samples.update(conformation_samples(box, state.positions, blocks))
+            samples.update(conformation_samples(bound_box, state.positions, blocks))
+        if "profile" in observables:
+            samples.update(
+                profile_samples(
+                    bound_box, state.positions, state.velocities, masses, scene.output.profile_bins
+                )
+            )
         if "transverse_current" in observables:
             samples["transverse_current"] = transverse_currents(
                 state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
@@ -261,27 +287,32 @@ def build(scene: Scene) -> Simulation:
             )
         )
 
-    def allocate_pairs(positions, minimum=None):
+    def allocate_pairs(positions, box_state, minimum=None):
         if search is None:
             return _empty_pair_list(positions)
         rows = positions[first:stop]
-        return search.allocate(rows, scene.neighbors.capacity_multiplier, minimum)
+        return search.allocate(rows, scene.neighbors.capacity_multiplier, minimum, box_state)
 
     def init_fn():
         positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
+        box_state = box.initial_state(dtype)
         state = SimState(
             positions=positions,
             velocities=velocities,
             forces=jnp.zeros_like(positions),
             image=image,
             species=species,
-            pair_list=allocate_pairs(positions),
-            virial=jnp.zeros((3, 3), dtype),
+            pair_list=allocate_pairs(positions, box_state),
+            virial={},
             step=jnp.asarray(0, jnp.int32),
             time=jnp.asarray(0.0, dtype),
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
+            box_state=box_state,
         )
+        # Zeros of the virial parts a step records, so the state keeps one structure.
+        parts = jax.eval_shape(advance, state).virial
+        state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
         state = init_observers(state)
         if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
             rows = slice(first, stop)
@@ -291,14 +322,14 @@ def build(scene: Scene) -> Simulation:
             )
             state = state.set(
                 forces=state.forces.at[rows].set(forces),
-                virial=virial,
+                virial={**state.virial, **virial},
                 pair_list=pair_list,
                 flags=bits,
             )
         return state
 
     def reallocate(state, minimum):
-        return state.set(pair_list=allocate_pairs(state.positions, minimum))
+        return state.set(pair_list=allocate_pairs(state.positions, state.box_state, minimum))
 
     return Simulation(
         scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate, init_observers
@@ -310,4 +341,4 @@ def _empty_pair_list(positions):
     n = positions.shape[0]
     empty = jnp.full((1,), n, jnp.int32)
     zero = jnp.asarray(0, jnp.int32)
-    return PairList(empty, empty, positions, zero, zero, jnp.asarray(False), zero)
+    return PairList(empty, empty, positions, None, zero, zero, jnp.asarray(False), zero)

@@ -26,6 +26,8 @@ class SimState:
         flags: int32 error bits (see jaxdpd.errors).
         solvent_state: state a solvent method keeps beside the particles (e.g. a
             lattice-Boltzmann fluid), a pytree; None for particle solvents.
+        box_state: traced state of a flowing box (e.g. the Lees–Edwards offset and
+            shear rate); None for a box at rest.
         observers: accumulators of observables measured on device while the run goes
             (e.g. multiple-tau correlators), a dict pytree; None when none is asked.
     """
@@ -42,4 +44,5 @@ class SimState:
     seed: jnp.ndarray
     flags: jnp.ndarray
     solvent_state: object = None
+    box_state: object = None
     observers: object = None

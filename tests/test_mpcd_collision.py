@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd import noise
+from jaxdpd.boxes import PeriodicBox
 from jaxdpd.mpcd import transport
 from jaxdpd.mpcd.cells import bin_particles, collision_grid, grid_shift
 from jaxdpd.mpcd.collision import (
@@ -29,6 +30,7 @@ from jaxdpd.mpcd.collision import (
 )
 
 GRID = collision_grid((4.0, 5.0, 6.0), 1.0)
+BOX = PeriodicBox(GRID.lengths)
 ALPHA = math.radians(130.0)
 
 
@@ -52,6 +54,11 @@ def _numpy_binning(positions, shift, cell_size, shape):
     return cell, shifted - index * cell_size
 
 
+def _at_rest(collide):
+    """A jitted collision in the box at rest."""
+    return jax.jit(functools.partial(collide, BOX))
+
+
 @functools.partial(jax.jit, static_argnums=1)
 def _axes(key, count):
     return random_axes(key, jnp.arange(count, dtype=jnp.uint32), jnp.float64)
@@ -73,7 +80,7 @@ def test_grid_shift_and_binning_match_numpy():
     assert np.all((shifts >= 0) & (shifts < GRID.cell_size))
     # Uniform on [0, a): mean a/2 within 5 standard errors (σ = a/√12).
     assert np.all(np.abs(shifts.mean(axis=0) - 0.5) < 5 / math.sqrt(12 * 200))
-    binned = jax.jit(lambda shift: bin_particles(GRID, jnp.asarray(positions), None, shift))
+    binned = jax.jit(lambda shift: bin_particles(GRID, BOX, jnp.asarray(positions), None, shift))
     for shift in shifts[:5]:
         binning = binned(shift)
         cell, local = _numpy_binning(positions, shift, GRID.cell_size, GRID.shape)
@@ -93,9 +100,9 @@ def test_collision_conserves_mass_momentum_and_energy_of_every_cell(dtype):
 
     @jax.jit
     def collide_and_bin(key):
-        new, _ = collide(jnp.asarray(positions), jnp.asarray(velocities), key)
+        new, _ = collide(BOX, jnp.asarray(positions), jnp.asarray(velocities), key)
         shift = grid_shift(key, GRID.cell_size, dtype)
-        return new, bin_particles(GRID, jnp.asarray(positions), None, shift).cell
+        return new, bin_particles(GRID, BOX, jnp.asarray(positions), None, shift).cell
 
     eps = float(jnp.finfo(dtype).eps)
     for collision in range(3):
@@ -119,7 +126,7 @@ def test_collision_is_eq_2_with_the_cells_axis_and_mass_weighted_mean():
     vector α n_c, n_c the cell's axis (random_axes of the cell id)."""
     positions, velocities, masses = _fluid(3)
     key = noise.step_key(9, 4)
-    collide = jax.jit(srd_collision(GRID, ALPHA, jnp.asarray(masses), None, False, jnp.float64))
+    collide = _at_rest(srd_collision(GRID, ALPHA, jnp.asarray(masses), None, False, jnp.float64))
     new = np.asarray(collide(jnp.asarray(positions), jnp.asarray(velocities), key)[0])
     shift = np.asarray(grid_shift(key, 1.0, jnp.float64))
     cell, _ = _numpy_binning(positions, shift, 1.0, GRID.shape)
@@ -158,7 +165,7 @@ def test_lone_particles_keep_their_velocity_and_empty_cells_make_no_nan():
         [[0.5, 0.5, 0.5], [2.5, 0.5, 0.5], [0.5, 2.5, 0.5], [0.5, 0.5, 2.5], [2.5, 2.5, 4.5]]
     )
     velocities = np.random.default_rng(5).normal(size=(5, 3)) * 3
-    collide = jax.jit(srd_collision(GRID, ALPHA, jnp.full(5, 7.0), None, True, jnp.float64))
+    collide = _at_rest(srd_collision(GRID, ALPHA, jnp.full(5, 7.0), None, True, jnp.float64))
     for collision in range(20):
         new, virial = collide(
             jnp.asarray(positions), jnp.asarray(velocities), noise.step_key(0, collision)
@@ -173,14 +180,14 @@ def test_collision_is_galilean_invariant_and_independent_of_particle_order():
     permuting the particles permutes the result (axes are drawn per cell id), both to
     round-off (the cell sums are summed in another order)."""
     positions, velocities, masses = _fluid(6)
-    collide = jax.jit(srd_collision(GRID, ALPHA, jnp.asarray(masses), None, False, jnp.float64))
+    collide = _at_rest(srd_collision(GRID, ALPHA, jnp.asarray(masses), None, False, jnp.float64))
     key = noise.step_key(3, 17)
     base = np.asarray(collide(jnp.asarray(positions), jnp.asarray(velocities), key)[0])
     drift = np.array([2.0, -1.5, 0.7])
     moved = np.asarray(collide(jnp.asarray(positions), jnp.asarray(velocities + drift), key)[0])
     np.testing.assert_allclose(moved - drift, base, atol=1e-13)
     order = np.random.default_rng(7).permutation(len(masses))
-    permuted_collide = jax.jit(
+    permuted_collide = _at_rest(
         srd_collision(GRID, ALPHA, jnp.asarray(masses[order]), None, False, jnp.float64)
     )
     permuted = np.asarray(
@@ -222,7 +229,9 @@ def test_maxwell_boltzmann_scaling_draws_the_canonical_cell_kinetic_energy():
     Gamma law's fourth moment, √((κ₄ + 2 κ₂²)/400) with κ₂ = f/2, κ₄ = 3f)."""
     positions, velocities, masses = _fluid(8, n=600, heavy=20)
     kT = 1.5
-    binning = bin_particles(GRID, jnp.asarray(positions), jnp.asarray(velocities), jnp.zeros(3))
+    binning = bin_particles(
+        GRID, BOX, jnp.asarray(positions), jnp.asarray(velocities), jnp.zeros(3)
+    )
     cell = np.asarray(binning.cell)
     relative, _ = srd_relative_velocities(
         binning.frame_velocities,

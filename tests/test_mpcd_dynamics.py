@@ -153,6 +153,7 @@ def _solvent_state():
             "box": {"lengths": list(SOLVENT_BOX.lengths)},
             "particles": {"density": 5.0},
             "solvent": {"method": "mpcd"},
+            "output": {"observables": ["temperature"]},  # no virial, as _solvent_step
         }
     )
     return build(scene).init_fn()

@@ -10,7 +10,8 @@ from jaxdpd.simulation import build
 
 
 def brute_force_dpd(positions, velocities, lengths, a, gamma, kT, dt, seed, step):
-    """Groot–Warren forces and virial over all pairs i < j (thesis eqs. 2.4–2.9),
+    """Groot–Warren forces and the virial of each force law over all pairs i < j
+    (thesis eqs. 2.4–2.9, 3.46),
     written independently of jaxdpd's kernels (only the noise hash is shared: it is
     the definition of θ_ij)."""
     n = len(positions)
@@ -29,12 +30,16 @@ def brute_force_dpd(positions, velocities, lengths, a, gamma, kT, dt, seed, step
     )
     sigma = np.sqrt(2 * gamma * kT)
     normal_velocity = np.sum(e * (velocities[i] - velocities[j]), axis=1)
-    magnitude = a * w - gamma * w * w * normal_velocity + sigma * w * theta / np.sqrt(dt)
-    pair_force = magnitude[:, None] * e
+    parts = {
+        "conservative": a * w,
+        "dissipative": -gamma * w * w * normal_velocity,
+        "random": sigma * w * theta / np.sqrt(dt),
+    }
+    pair_force = sum(parts.values())[:, None] * e
     forces = np.zeros_like(positions)
     np.add.at(forces, i, pair_force)
     np.subtract.at(forces, j, pair_force)
-    virial = d.T @ pair_force
+    virial = {name: d.T @ (m[:, None] * e) for name, m in parts.items()}
     return forces, virial
 
 
@@ -54,7 +59,9 @@ def test_forces_and_virial_match_brute_force():
         0,
     )
     np.testing.assert_allclose(state.forces, forces, atol=1e-10)
-    np.testing.assert_allclose(state.virial, virial, atol=1e-8)
+    assert set(state.virial) == set(virial)
+    for name, part in virial.items():
+        np.testing.assert_allclose(state.virial[name], part, atol=1e-8, err_msg=name)
 
 
 def test_species_matrix_selects_a_ij():

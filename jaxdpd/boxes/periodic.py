@@ -2,12 +2,27 @@
 
 Positions are stored wrapped into [0, L) per axis, with integer image counters so
 that unwrapped coordinates r + n L can be recovered (thesis §3.2.4–3.2.5).
+
+Every box type offers the same interface.  A box object is static (hashable; its
+edge lengths fix array shapes at trace time); boxes that change with time (sheared,
+elongated) keep a traced `box state` in `SimState.box_state` and are *bound* to it
+inside a step (`box.bind(state.box_state)`), giving an object with the same methods
+that reads the current offset or lattice.  A periodic box at rest has no state and
+binds to itself, so no flow arithmetic is traced for it.
+
+The interface (bound box):
+    separation(components)       minimum-image (dx, dy, dz) of r_i − r_j
+    minimum_image_vectors(v)     the same for vectors of shape (..., 3)
+    wrap(positions, image)       positions back into the primary box, image counters
+    frame_positions(positions)   coordinates in which the lattice is rectangular with
+                                 edges `lengths` (the cell list bins these)
+    frame_to_cartesian(comps)    Cartesian separation from a frame separation
+    velocity_gradient            (3, 3) L, u(r) = L (r − centre), or None at rest
 """
 
 from dataclasses import dataclass
 
 import jax.numpy as jnp
-from jax_md import space
 
 
 @dataclass(frozen=True)
@@ -20,15 +35,43 @@ class PeriodicBox:
 
     lengths: tuple[float, float, float]
 
+    # -- static description ----------------------------------------------------------
     @property
     def volume(self) -> float:
         """Box volume L_x L_y L_z."""
         lx, ly, lz = self.lengths
         return lx * ly * lz
 
+    @property
+    def cell_heights(self) -> tuple[float, float, float]:
+        """The smallest distance between opposite faces of a frame cell row, per axis,
+        over every shape the box takes (here the edges): cells of a neighbour grid
+        must be at least the list cut-off thick in these units."""
+        return self.lengths
+
     def lengths_array(self, dtype):
         """Edge lengths as a (3,) array of `dtype`."""
         return jnp.asarray(self.lengths, dtype)
+
+    def initial_state(self, dtype):
+        """The box state at time 0 (None: nothing changes)."""
+        return None
+
+    def advance(self, box_state, time, dt):
+        """The box state after a step from `time` to `time + dt`."""
+        return box_state
+
+    def bind(self, box_state):
+        """The box as it is in `box_state` (a box at rest is always itself)."""
+        return self
+
+    def image_drift(self, box_state, reference_state):
+        """How far any periodic image has moved against the primary box since
+        `reference_state` (never, at rest)."""
+        return 0.0
+
+    # -- geometry of a bound box -----------------------------------------------------
+    velocity_gradient = None
 
     def minimum_image(self, separation, axis):
         """Minimum-image separation along one axis.
@@ -42,10 +85,30 @@ class PeriodicBox:
         length = jnp.asarray(self.lengths[axis], separation.dtype)
         return separation - length * jnp.round(separation / length)
 
+    def separation(self, components):
+        """Minimum-image (dx, dy, dz) from raw separations given as three arrays."""
+        return tuple(self.minimum_image(c, axis) for axis, c in enumerate(components))
+
     def minimum_image_vectors(self, separations):
         """Minimum-image version of separation vectors of shape (..., 3)."""
         lengths = self.lengths_array(separations.dtype)
         return separations - lengths * jnp.round(separations / lengths)
+
+    def springs_past_half_box(self, separation, springs, image_difference):
+        """Whether some spring is longer than half a box edge along an axis, so that
+        its minimum image is not the spring: the image counters of its beads say
+        where the partner really is.
+
+        Args:
+            separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
+            springs: (..., 3) their minimum images.
+            image_difference: (..., 3) int image counters n_{k+1} − n_k.
+        Returns:
+            bool scalar.
+        """
+        lengths = self.lengths_array(separation.dtype)
+        by_image = separation + image_difference.astype(separation.dtype) * lengths
+        return jnp.any(jnp.abs(by_image - springs) > 0.5 * lengths)
 
     def wrap(self, positions, image):
         """Wrap positions into [0, L) and count the boundary crossings.
@@ -58,15 +121,28 @@ class PeriodicBox:
         """
         lengths = self.lengths_array(positions.dtype)
         crossings = jnp.floor(positions / lengths)
-        wrapped = positions - crossings * lengths
-        # Round-off can leave a coordinate exactly at L: fold it back to 0.
-        wrapped = jnp.where(wrapped >= lengths, wrapped - lengths, wrapped)
+        wrapped, crossings = fold_edge(positions - crossings * lengths, crossings, lengths)
         return wrapped, image + crossings.astype(image.dtype)
 
     def unwrap(self, positions, image):
         """Unwrapped coordinates r + n L from wrapped positions and image counters."""
         return positions + image.astype(positions.dtype) * self.lengths_array(positions.dtype)
 
-    def jax_md_space(self):
-        """jax-md's (displacement_fn, shift_fn) for this box (wrapped coordinates)."""
-        return space.periodic(jnp.asarray(self.lengths, jnp.float64))
+    def frame_positions(self, positions):
+        """Cell-list coordinates: the wrapped positions themselves."""
+        return positions
+
+    def frame_to_cartesian(self, components):
+        """A frame separation (dx, dy, dz) is already Cartesian."""
+        return components
+
+
+def fold_edge(wrapped, crossings, lengths):
+    """Fold coordinates that round-off left exactly at L back to 0, and count that
+    crossing too (a tiny negative coordinate wraps to L in floating point).
+
+    Returns:
+        (wrapped in [0, L), crossings).
+    """
+    at_edge = wrapped >= lengths
+    return jnp.where(at_edge, wrapped - lengths, wrapped), crossings + at_edge

@@ -24,7 +24,7 @@ import numpy as np
 import jaxdpd
 
 UNITS = "reduced DPD units: r_c = m = k_BT = 1 (length r_c, time r_c sqrt(m/k_BT))"
-CHECKPOINT_FIELDS = ("positions", "velocities", "forces", "image", "species", "virial")
+CHECKPOINT_FIELDS = ("positions", "velocities", "forces", "image", "species")
 CHECKPOINT_SCALARS = ("step", "time", "seed", "flags")
 
 
@@ -136,6 +136,9 @@ class H5MDWriter:
         group = self.file.create_group("checkpoint")
         for name in CHECKPOINT_FIELDS:
             group.create_dataset(name, data=np.asarray(getattr(state, name)))
+        virial = group.create_group("virial")
+        for part, value in state.virial.items():
+            virial.create_dataset(part, data=np.asarray(value))
         for name in CHECKPOINT_SCALARS:
             group.attrs[name] = np.asarray(getattr(state, name)).item()
         group.attrs["reason"] = reason
@@ -178,6 +181,7 @@ def read_checkpoint(path) -> dict:
     with h5py.File(path, "r") as handle:
         group = handle["checkpoint"]
         data = {name: group[name][()] for name in CHECKPOINT_FIELDS}
+        data["virial"] = {part: value[()] for part, value in group["virial"].items()}
         data.update({name: group.attrs[name] for name in CHECKPOINT_SCALARS})
         data["reason"] = group.attrs["reason"]
         return data

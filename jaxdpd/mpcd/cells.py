@@ -11,13 +11,14 @@ belongs to the cell
 and has the in-cell coordinates ξ − a c ∈ [0, a)³ (used by the collisional stress).
 The shift is a pure function of (seed, collision index): `grid_shift`.
 
-Lees–Edwards boxes: a cell that straddles the sheared boundary (y = 0 ≡ L_y) holds
-particles from both sides.  Binning then maps r − s into the primary box by the
-box's own wrap, which for a Lees–Edwards box also moves x by the image offset and
-v_x by the velocity jump γ̇ L_y of the image; the collision acts on those image
-velocities (`CellBinning.frame_velocities`) and adds the change of velocity to the
-stored ones.  `bin_particles` is that substitution point: it is the only place the
-box geometry enters the collision.
+Lees–Edwards boxes (Kikuchi, Pooley, Ryder & Yeomans, J. Chem. Phys. 119, 6388
+(2003)): the cell grid is that of the primary box; a cell that straddles the moving
+boundary (y = 0 ≡ L_y) holds particles from below as their images above, displaced by
+the offset Δ in x and moving faster by γ̇ L_y.  Velocities are stored peculiar
+(c = v − u(r), SLLOD, jaxdpd.flows); the collision acts on the laboratory velocities
+of the images (`CellBinning.frame_velocities`) and adds the change of velocity to the
+stored ones.  `bin_particles` is the only place the box geometry enters the
+collision.
 """
 
 import math
@@ -111,30 +112,44 @@ class CellBinning:
     frame_velocities: jnp.ndarray
 
 
-def bin_particles(grid: CollisionGrid, positions, velocities, shift) -> CellBinning:
+def bin_particles(grid: CollisionGrid, bound_box, positions, velocities, shift) -> CellBinning:
     """Sort particles into the shifted cells (module docstring).
 
     Args:
         grid: the collision grid.
+        bound_box: the box at the collision (jaxdpd.boxes, bound to its state): a box
+            at rest, or a Lees–Edwards box (its offset Δ and streaming velocity).
         positions: (N, 3) positions wrapped into the box.
-        velocities: (N, 3).
+        velocities: (N, 3) velocities as stored (peculiar ones in a sheared box).
         shift: (3,) grid shift in [0, a)³.
     Returns:
-        CellBinning.
+        CellBinning with laboratory velocities in the cells' frame.
     """
     dtype = positions.dtype
     lengths = jnp.asarray(grid.lengths, dtype)
     a = jnp.asarray(grid.cell_size, dtype)
     shifted = positions - shift
     # r ∈ [0, L) and s ∈ [0, a) put r − s in (−a, L): one periodic fold suffices.
-    shifted = jnp.where(shifted < 0, shifted + lengths, shifted)
+    below = shifted < 0
+    shifted = jnp.where(below, shifted + lengths, shifted)
+    frame_velocities = velocities
+    if bound_box.velocity_gradient is not None:
+        # Lees–Edwards (the flowing box whose boundary the cells cross): a particle
+        # folded across y joins the cell as its image above, displaced by Δ in x and
+        # moving with the streaming velocity there, u(y + L_y) = u(y) + γ̇ L_y.
+        crossed = below[:, 1]
+        x = shifted[:, 0] + jnp.where(crossed, bound_box.offset, 0)
+        x = x - lengths[0] * jnp.floor(x / lengths[0])
+        shifted = shifted.at[:, 0].set(x)
+        image = positions.at[:, 1].add(jnp.where(crossed, lengths[1], 0))
+        frame_velocities = velocities + bound_box.streaming_velocity(image)
     index = jnp.floor(shifted / a)
     local = shifted - index * a
     shape = jnp.asarray(grid.shape, jnp.int32)
     # Round-off can put a coordinate at exactly L (index n): fold it into cell 0.
     index = jnp.mod(index.astype(jnp.int32), shape)
     cell = index[:, 0] + shape[0] * (index[:, 1] + shape[1] * index[:, 2])
-    return CellBinning(cell, local, velocities)
+    return CellBinning(cell, local, frame_velocities)
 
 
 def cell_totals(values, cell, n_cells: int):

@@ -226,19 +226,20 @@ def srd_collision(
             1999), which is not Galilean invariant at small mean free paths (Ihle &
             Kroll 2001) — a reference for tests.
     Returns:
-        `collide(positions, velocities, key) -> (velocities, virial)`: positions
-        (N, 3) wrapped, key the uint32 collision key (grid shift and axes).
+        `collide(bound_box, positions, velocities, key) -> (velocities, virial)`:
+        the box bound to its state at the collision, positions (N, 3) wrapped, key the
+        uint32 collision key (grid shift and axes); virial None unless `with_virial`.
     """
     cos_angle = jnp.asarray(math.cos(rotation_angle), dtype)
     sin_angle = jnp.asarray(math.sin(rotation_angle), dtype)
     n_cells = grid.n_cells
 
-    def collide(positions, velocities, key):
+    def collide(bound_box, positions, velocities, key):
         if random_shift:
             shift = grid_shift(key, grid.cell_size, dtype)
         else:
             shift = jnp.zeros(3, dtype)
-        binning = bin_particles(grid, positions, velocities, shift)
+        binning = bin_particles(grid, bound_box, positions, velocities, shift)
         relative, rotated = srd_relative_velocities(
             binning.frame_velocities, masses, binning.cell, n_cells, key, cos_angle, sin_angle
         )
@@ -247,10 +248,7 @@ def srd_collision(
                 rotated, masses, binning.cell, n_cells, key, thermostat_kT
             )
         changes = rotated - relative
-        if with_virial:
-            virial = collisional_virial(binning.local, changes, masses)
-        else:
-            virial = jnp.zeros((3, 3), dtype)
+        virial = collisional_virial(binning.local, changes, masses) if with_virial else None
         return velocities + changes, virial
 
     return collide
@@ -260,14 +258,15 @@ def rouse_collision(rotation_angle: float, dtype):
     """The solvent-free Rouse variant as a collision (`single_particle_rotation`).
 
     Returns:
-        `collide(positions, velocities, key) -> (velocities, zero virial)`.
+        `collide(bound_box, positions, velocities, key) -> (velocities, None)`: the
+        rotation exchanges momentum with an implicit bath, not between particles, so
+        it has no collisional stress.
     """
     cos_angle = jnp.asarray(math.cos(rotation_angle), dtype)
     sin_angle = jnp.asarray(math.sin(rotation_angle), dtype)
 
-    def collide(positions, velocities, key):
-        del positions
-        rotated = single_particle_rotation(velocities, key, cos_angle, sin_angle)
-        return rotated, jnp.zeros((3, 3), dtype)
+    def collide(bound_box, positions, velocities, key):
+        del bound_box, positions
+        return single_particle_rotation(velocities, key, cos_angle, sin_angle), None
 
     return collide

@@ -46,5 +46,14 @@ def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dty
     substeps = round(h / scene.integrator.dt)
     assert math.isclose(substeps * scene.integrator.dt, h, rel_tol=1e-9)  # validated
     return mpcd_cycle(
-        box, h, substeps, monomer_range, monomer_step, collide, solvent.kT, dtype, masses
+        box,
+        h,
+        substeps,
+        monomer_range,
+        monomer_step,
+        collide,
+        solvent.kT,
+        dtype,
+        masses,
+        with_virial,
     )

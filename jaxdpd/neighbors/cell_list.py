@@ -1,6 +1,8 @@
 """jaxdpd's cell-list half neighbour list.
 
-Particles are binned into cells of side ≥ r_c + skin and laid out on a padded grid
+Particles are binned, by their coordinates in the box's frame (the positions
+themselves in a box at rest, sheared coordinates in a Lees–Edwards box; see
+jaxdpd.boxes), into cells at least r_c + skin thick and laid out on a padded grid
 (slot, c_x, c_y, c_z) of per-cell member slots.  Each cell is compared with itself
 (slot pairs j > i) and with 13 "forward" neighbour cells (a half stencil), so every
 pair is found exactly once.  The neighbour blocks are whole-grid rolls, and the
@@ -10,8 +12,8 @@ result is packed into 32-bit words, one bit per candidate slot, and the accepted
 are compacted into flat (i, j) arrays by branch-free binary searches over popcounts.
 
 Axes with fewer than three cells fall back to a single cell along that axis (every
-particle is a candidate along it, measured by the minimum image, which stays unique
-because the scene requires L > 2 (r_c + skin)).
+particle is a candidate along it, measured by the minimum image in the frame, which
+stays unique because the scene requires every cell height > 2 (r_c + skin)).
 """
 
 import itertools
@@ -20,17 +22,18 @@ import math
 import jax
 import jax.numpy as jnp
 
-from jaxdpd.boxes import PeriodicBox
 from jaxdpd.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
 
 WORD_BITS = 32
 
 
-def cell_grid(box: PeriodicBox, list_cutoff: float) -> tuple[int, int, int]:
-    """Cells per axis: ⌊L/r_list⌋, or 1 where that would be fewer than 3."""
+def cell_grid(box, list_cutoff: float) -> tuple[int, int, int]:
+    """Cells per frame axis: ⌊h/r_list⌋ with h the box's thinnest extent along that
+    axis (`box.cell_heights`: the edge of a box at rest), or 1 where that would be
+    fewer than 3."""
     counts = []
-    for length in box.lengths:
-        n = int(math.floor(length / list_cutoff))
+    for height in box.cell_heights:
+        n = int(math.floor(height / list_cutoff))
         counts.append(n if n >= 3 else 1)
     return tuple(counts)
 
@@ -95,18 +98,21 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
     return jnp.where(slots < counts[None, :], gathered, n), slot, jnp.max(counts)
 
 
-def _accepted_words(box, positions, members, n_cells, offsets, list_cutoff):
+def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
     """Distance tests of every (slot, cell) against the slots of its stencil cells.
 
     Args:
+        bound_box: the box at this instant (frame lengths, frame → Cartesian).
+        frame: (N, 3) frame coordinates of the particles.
         members: (slots, cells) particle in each slot (N when empty).
         offsets: the stencil, own cell first.
     Returns:
         (words, slots, cells) uint32; bit b of word (o, g) says whether slot
         g·32 + b of the neighbour cell (cell + offset o) is within r_list.
     """
-    n = positions.shape[0]
-    dtype = positions.dtype
+    n = frame.shape[0]
+    dtype = frame.dtype
+    lengths = bound_box.lengths
     cell_capacity = members.shape[0]
     grid_shape = (cell_capacity,) + n_cells
     members = members.reshape(grid_shape)
@@ -114,7 +120,7 @@ def _accepted_words(box, positions, members, n_cells, offsets, list_cutoff):
     safe = jnp.minimum(members, n - 1)
     # Empty slots hold NaN: every comparison with them is False.
     coordinates = [
-        jnp.where(empty, jnp.asarray(jnp.nan, dtype), positions[:, axis][safe]) for axis in range(3)
+        jnp.where(empty, jnp.asarray(jnp.nan, dtype), frame[:, axis][safe]) for axis in range(3)
     ]
     groups = math.ceil(cell_capacity / WORD_BITS)
     limit = jnp.asarray(list_cutoff**2, dtype)
@@ -131,17 +137,20 @@ def _accepted_words(box, positions, members, n_cells, offsets, list_cutoff):
                 index = jnp.arange(n_cells[axis]).reshape(
                     [n_cells[axis] if a == axis else 1 for a in range(3)]
                 )
-                image = jnp.where(index == edge, offset[axis] * box.lengths[axis], 0.0)
+                image = jnp.where(index == edge, offset[axis] * lengths[axis], 0.0)
                 neighbor = neighbor + image.astype(dtype)[None]
             rolled.append(neighbor)
         group_words = [jnp.zeros(grid_shape, jnp.uint32) for _ in range(groups)]
         for j in range(cell_capacity):
-            distance_sq = jnp.zeros(grid_shape, dtype)
+            separation = []
             for axis in range(3):
-                separation = coordinates[axis] - rolled[axis][j][None]
+                component = coordinates[axis] - rolled[axis][j][None]
                 if n_cells[axis] == 1:
-                    separation = box.minimum_image(separation, axis)
-                distance_sq = distance_sq + separation * separation
+                    length = jnp.asarray(lengths[axis], dtype)
+                    component = component - length * jnp.round(component / length)
+                separation.append(component)
+            separation = bound_box.frame_to_cartesian(tuple(separation))
+            distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
             within = distance_sq < limit
             if offset == (0, 0, 0):
                 within = within & (slot_index < j)
@@ -189,11 +198,12 @@ def _compact(accepted, pair_capacity: int):
     return row, word, bit, slots < total, total
 
 
-def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float):
+def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
     """jaxdpd's cell-list half neighbour list (see the module docstring).
 
     Args:
-        box: periodic box; requires L > 2 (cutoff + skin) along every axis.
+        box: a static box (periodic or flowing); requires its `cell_heights` to exceed
+            2 (cutoff + skin).
         n_particles: N.
         cutoff: interaction cut-off r_c.
         skin: Verlet skin ≥ 0.
@@ -208,11 +218,13 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
     offsets = stencil(n_cells)
     offset_table = jnp.asarray(offsets, jnp.int32)
 
-    def build(positions, cell_capacity: int, pair_capacity: int) -> PairList:
-        cell_xyz = _cell_coordinates(positions, cell_size, n_cells)
+    def build(positions, box_state, cell_capacity: int, pair_capacity: int) -> PairList:
+        bound_box = box.bind(box_state)
+        frame = bound_box.frame_positions(positions)
+        cell_xyz = _cell_coordinates(frame, cell_size, n_cells)
         cell_ids = _cell_id(cell_xyz, n_cells)
         members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity)
-        grid_words = _accepted_words(box, positions, members, n_cells, offsets, list_cutoff)
+        grid_words = _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff)
         # Each particle's row of words: (words, N).
         accepted = grid_words[:, jnp.minimum(slot, cell_capacity - 1), cell_ids]
         accepted = jnp.where(slot < cell_capacity, accepted, jnp.uint32(0))
@@ -225,6 +237,7 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
             i=jnp.where(valid, i, n_particles),
             j=jnp.where(valid, partner, n_particles),
             reference_positions=positions,
+            reference_box_state=box_state,
             needed_pairs=total,
             needed_cell_occupancy=max_occupancy,
             overflow=(total > pair_capacity) | (max_occupancy > cell_capacity),
@@ -232,15 +245,18 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
             cell_capacity=cell_capacity,
         )
 
-    build_jit = jax.jit(build, static_argnums=(1, 2))
+    build_jit = jax.jit(build, static_argnums=(2, 3))
 
     @jax.jit
-    def fullest_cell(positions):
+    def fullest_cell(positions, box_state):
         """Occupancy of the fullest cell (sizes the cell buffers)."""
-        ids = _cell_id(_cell_coordinates(positions, cell_size, n_cells), n_cells)
+        frame = box.bind(box_state).frame_positions(positions)
+        ids = _cell_id(_cell_coordinates(frame, cell_size, n_cells), n_cells)
         return jnp.max(jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1))
 
-    def allocate(positions, capacity_multiplier: float = 1.25, minimum=None) -> PairList:
+    def allocate(
+        positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None
+    ) -> PairList:
         """Size the buffers for `positions` (outside jit), then build the list.
 
         The pair buffer starts from the ideal-gas estimate ½N(N−1)·(4π/3)r_list³/V
@@ -251,22 +267,23 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
             capacity_multiplier: head-room factor (≥ 1) on the counts found.
             minimum: optional (pairs, cell occupancy) the buffers must at least hold,
                 e.g. the needs recorded when a chunk overflowed.
+            box_state: the box state of a flowing box (None at rest).
         """
         min_pairs, min_occupancy = minimum or (0, 0)
-        occupancy = max(int(fullest_cell(positions)), int(min_occupancy))
+        occupancy = max(int(fullest_cell(positions, box_state)), int(min_occupancy))
         cell_capacity = occupancy + max(3, math.ceil(0.2 * occupancy))
         ideal = 0.5 * n_particles * (n_particles - 1) * 4 / 3 * math.pi * list_cutoff**3
         pairs = max(ideal / box.volume, int(min_pairs))
         capacity = max(16, math.ceil(pairs * capacity_multiplier))
-        pair_list = build_jit(positions, cell_capacity, capacity)
+        pair_list = build_jit(positions, box_state, cell_capacity, capacity)
         if int(pair_list.needed_pairs) > pair_list.capacity:
             needed = math.ceil(int(pair_list.needed_pairs) * capacity_multiplier)
-            pair_list = build_jit(positions, cell_capacity, needed)
+            pair_list = build_jit(positions, box_state, cell_capacity, needed)
         return pair_list
 
-    def update(positions, pair_list: PairList) -> PairList:
+    def update(positions, pair_list: PairList, box_state=None) -> PairList:
         def rebuild(old):
-            new = build(positions, old.cell_capacity, old.capacity)
+            new = build(positions, box_state, old.cell_capacity, old.capacity)
             return new.set(
                 needed_pairs=jnp.maximum(new.needed_pairs, old.needed_pairs),
                 needed_cell_occupancy=jnp.maximum(
@@ -278,7 +295,7 @@ def cell_list_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: fl
 
         if skin == 0:
             return rebuild(pair_list)
-        stale = needs_rebuild(box, positions, pair_list.reference_positions, skin)
+        stale = needs_rebuild(box, positions, pair_list, box_state, skin)
         return jax.lax.cond(stale, rebuild, lambda old: old, pair_list)
 
     return NeighborSearch(allocate=allocate, update=update, half=True, cutoff=cutoff, skin=skin)

@@ -60,6 +60,7 @@ def jax_md_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float
             i=i,
             j=j,
             reference_positions=neighbors.reference_position,
+            reference_box_state=None,
             needed_pairs=jnp.asarray(0, jnp.int32),
             needed_cell_occupancy=jnp.asarray(0, jnp.int32),
             overflow=jnp.asarray(neighbors.did_buffer_overflow),
@@ -67,14 +68,17 @@ def jax_md_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float
             backend=neighbors,
         )
 
-    def allocate(positions, capacity_multiplier: float = 1.25, minimum=None) -> PairList:
+    def allocate(
+        positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None
+    ) -> PairList:
         """Allocate with jax-md (outside jit); `minimum` is ignored: jax-md resizes
-        from the configuration, and a larger multiplier is used after an overflow."""
+        from the configuration, and a larger multiplier is used after an overflow.
+        Periodic boxes at rest only (`box_state` must be None)."""
         multiplier = capacity_multiplier * (1.5 if minimum else 1.0)
         neighbors = make_list_fn(positions.dtype, multiplier).allocate(positions)
         return wrap(neighbors, jnp.asarray(0, jnp.int32))
 
-    def update(positions, pair_list: PairList) -> PairList:
+    def update(positions, pair_list: PairList, box_state=None) -> PairList:
         neighbors = pair_list.backend.update(positions)
         rebuilt = jnp.any(neighbors.reference_position != pair_list.reference_positions)
         return wrap(neighbors, pair_list.rebuilds + rebuilt.astype(jnp.int32))

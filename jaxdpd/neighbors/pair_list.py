@@ -6,8 +6,6 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 from jax_md import dataclasses as jmd_dataclasses
 
-from jaxdpd.boxes import PeriodicBox
-
 
 @jmd_dataclasses.dataclass
 class PairList:
@@ -16,6 +14,7 @@ class PairList:
     Attributes:
         i, j: (P,) int32 particle indices; empty slots hold N.
         reference_positions: (N, 3) positions at the last rebuild (skin test).
+        reference_box_state: the box state at the last rebuild (None at rest).
         needed_pairs: int32, pairs found at the last rebuild (may exceed P).
         needed_cell_occupancy: int32, fullest cell at the last rebuild.
         overflow: bool, True when the last rebuild did not fit the capacities.
@@ -27,6 +26,7 @@ class PairList:
     i: jnp.ndarray
     j: jnp.ndarray
     reference_positions: jnp.ndarray
+    reference_box_state: object
     needed_pairs: jnp.ndarray
     needed_cell_occupancy: jnp.ndarray
     overflow: jnp.ndarray
@@ -45,10 +45,12 @@ class NeighborSearch:
     """A neighbour-search backend.
 
     Attributes:
-        allocate: `allocate(positions, capacity_multiplier) -> PairList`, called
-            outside jit: sizes the buffers from the configuration it is given.
-        update: `update(positions, pair_list) -> PairList`, jittable: rebuilds when
-            any particle moved more than skin/2 since the last rebuild.
+        allocate: `allocate(positions, capacity_multiplier, minimum, box_state)
+            -> PairList`, called outside jit: sizes the buffers from the
+            configuration it is given.
+        update: `update(positions, pair_list, box_state) -> PairList`, jittable:
+            rebuilds when a pair may have come within the cut-off unlisted (see
+            `needs_rebuild`).
         half: True when each pair is listed once.
         cutoff: interaction cut-off r_c.
         skin: Verlet skin added to the cut-off.
@@ -61,23 +63,29 @@ class NeighborSearch:
     skin: float
 
 
-def needs_rebuild(box: PeriodicBox, positions, reference_positions, skin: float):
-    """True when some particle moved more than skin/2 since the reference.
+def needs_rebuild(box, positions, pair_list, box_state, skin: float):
+    """True when a pair may have come within the cut-off unlisted: when twice the
+    largest displacement since the last rebuild, plus how far the periodic images
+    have moved against the primary box (`box.image_drift`, the offset change of a
+    Lees–Edwards box), exceeds the skin.
 
     Args:
-        box: the periodic box (displacements are minimum-image).
-        positions, reference_positions: (N, 3) arrays.
+        box: the static box (displacements are minimum-image in its current state).
+        positions: (N, 3) wrapped positions.
+        pair_list: the list, with its reference positions and box state.
+        box_state: the current box state (None at rest).
         skin: Verlet skin; with skin = 0 the list is rebuilt every step.
     """
     if skin == 0:
         return jnp.asarray(True)
-    moved = box.minimum_image_vectors(positions - reference_positions)
-    max_sq = jnp.max(jnp.sum(moved * moved, axis=1))
-    return max_sq > (0.5 * skin) ** 2
+    moved = box.bind(box_state).minimum_image_vectors(positions - pair_list.reference_positions)
+    largest = jnp.sqrt(jnp.max(jnp.sum(moved * moved, axis=1)))
+    drift = box.image_drift(box_state, pair_list.reference_box_state)
+    return 2 * largest + drift > skin
 
 
 def neighbor_search(
-    box: PeriodicBox,
+    box,
     n_particles: int,
     cutoff: float,
     skin: float,
@@ -87,7 +95,7 @@ def neighbor_search(
     """Build a neighbour-search backend.
 
     Args:
-        box: the periodic box.
+        box: the static box (periodic, or flowing for the cell list).
         n_particles: N.
         cutoff: interaction cut-off r_c.
         skin: Verlet skin (≥ 0); pairs within cutoff + skin are listed.

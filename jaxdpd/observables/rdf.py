@@ -46,6 +46,7 @@ class RadialDistribution:
             jnp.asarray(i, jnp.int32),
             jnp.asarray(j, jnp.int32),
             positions,
+            None,
             zero,
             zero,
             jnp.asarray(False),

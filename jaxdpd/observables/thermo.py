@@ -4,8 +4,9 @@
                                               momentum is conserved)
     P_ab = [Σ_i m_i v_ia v_ib + Σ_pairs (r_i − r_j)_a F_ij,b] / V
 
-(Irving–Kirkwood virial form, thesis eq. 2.12 generalised to the tensor, with every
-pair force, dissipative and random included.)
+(Irving–Kirkwood virial form, thesis eqs. 3.46–3.49 with the sign of a pressure,
+P = −σ, every pair force, dissipative and random included, and the springs' Kramers
+term; v is the peculiar velocity in flow.)  Each part is reported separately.
 """
 
 import numpy as np
@@ -24,11 +25,6 @@ def temperature(kinetic, n_particles: int):
     return trace / (3 * (n_particles - 1))
 
 
-def pressure_tensor(kinetic, virial, volume: float):
-    """P_ab from kinetic and virial tensors of shape (..., 3, 3)."""
-    return (np.asarray(kinetic) + np.asarray(virial)) / volume
-
-
 def scalar_pressure(tensor):
     """p = tr(P)/3."""
     return np.trace(np.asarray(tensor), axis1=-2, axis2=-1) / 3
@@ -45,13 +41,25 @@ def step_samples(observables, state, masses=None):
 
 
 def reduce_samples(samples: dict, n_particles: int, volume: float) -> dict:
-    """Per-step kinetic/virial tensors → named time series (NumPy, host side); other
-    samples (already named series, e.g. conformation) pass through unchanged."""
-    series = {name: values for name, values in samples.items() if name not in ("kinetic", "virial")}
+    """Per-step kinetic tensors and virial parts → named time series (NumPy, host
+    side); other samples (already named series, e.g. conformation) pass through.
+
+    Series: "temperature"; "pressure_tensor" (total), "pressure" (its trace / 3) and
+    "pressure_tensor_part/<part>" for "kinetic" and each virial part the step recorded
+    ("conservative", "dissipative", "random", "bond", ...: thesis eqs. 3.46–3.49
+    with the sign of a pressure, σ = −P).
+    """
+    passed = ("kinetic", "virial")
+    series = {name: values for name, values in samples.items() if name not in passed}
     if "kinetic" in samples:
         series["temperature"] = temperature(samples["kinetic"], n_particles)
     if "virial" in samples:
-        tensor = pressure_tensor(samples["kinetic"], samples["virial"], volume)
-        series["pressure_tensor"] = tensor
-        series["pressure"] = scalar_pressure(tensor)
+        kinetic = np.asarray(samples["kinetic"])
+        series["pressure_tensor_part/kinetic"] = kinetic / volume
+        total = kinetic
+        for name, virial in samples["virial"].items():
+            series[f"pressure_tensor_part/{name}"] = np.asarray(virial) / volume
+            total = total + np.asarray(virial)
+        series["pressure_tensor"] = total / volume
+        series["pressure"] = scalar_pressure(series["pressure_tensor"])
     return series

@@ -17,22 +17,32 @@ NOISE_LAWS = {
 }
 
 
-def dissipative_random(weight, relative_normal_velocity, theta, gamma, sigma, dt):
-    """Scalar law: magnitude of F^D + F^R along e_ij.
+def dissipative(weight, relative_normal_velocity, gamma):
+    """Scalar law: magnitude of F^D = −γ w_R² (e_ij · v_ij) along e_ij.
 
     Args:
         weight: w_R(r) = 1 − r/r_c (0 beyond the cut-off).
-        relative_normal_velocity: e_ij · (v_i − v_j).
-        theta: unit-variance random variate, symmetric in (i, j).
+        relative_normal_velocity: e_ij · (v_i − v_j), laboratory frame.
         gamma: friction coefficient γ (mass/time).
+    """
+    return -gamma * weight * weight * relative_normal_velocity
+
+
+def random(weight, theta, sigma, dt):
+    """Scalar law: magnitude of F^R = σ w_R θ_ij / √Δt along e_ij.
+
+    Args:
+        weight: w_R(r) = 1 − r/r_c (0 beyond the cut-off).
+        theta: unit-variance random variate, symmetric in (i, j).
         sigma: noise amplitude σ = √(2 γ k_BT).
         dt: time step Δt.
     """
-    return weight * (sigma * theta / jnp.sqrt(dt) - gamma * weight * relative_normal_velocity)
+    return weight * sigma * theta / jnp.sqrt(dt)
 
 
 def groot_warren_term(gamma: float, kT: float, dt: float, noise_law: str, dtype):
-    """Pair term for the composed step (uses context.velocities and context.key).
+    """Pair term for the composed step (uses context.velocities and context.key):
+    `term(geometry, context) -> {"dissipative": ..., "random": ...}` magnitudes.
 
     Args:
         gamma: γ; kT: k_BT; dt: Δt; noise_law: "uniform" or "gaussian".
@@ -45,7 +55,10 @@ def groot_warren_term(gamma: float, kT: float, dt: float, noise_law: str, dtype)
 
     def term(geometry, context):
         theta = draw(context.key, geometry.i, geometry.j, dtype)
-        normal_velocity = geometry.along_pair(context.velocities)
-        return dissipative_random(geometry.weight, normal_velocity, theta, gamma_, sigma, dt_)
+        normal_velocity = geometry.relative_velocity_along_pair(context.velocities)
+        return {
+            "dissipative": dissipative(geometry.weight, normal_velocity, gamma_),
+            "random": random(geometry.weight, theta, sigma, dt_),
+        }
 
     return term

@@ -25,14 +25,15 @@ def collision_magnitude(w, relative_normal_momentum, delta_pi, pi0, omega):
 
 
 def hoogerbrugge_koelman_term(density, cutoff, pi0, omega, delta_pi_half_width, mass, dtype):
-    """Impulse term Ω_ij for the composed step (context.velocities, context.key)."""
+    """Impulse term for the composed step (context.velocities, context.key):
+    `term(geometry, context) -> {"collision": Ω_ij}`."""
     pi0_, omega_ = jnp.asarray(pi0, dtype), jnp.asarray(omega, dtype)
     width = jnp.asarray(delta_pi_half_width, dtype)
 
     def term(geometry, context):
         delta_pi = noise.pair_uniform(context.key, geometry.i, geometry.j, -width, width, dtype)
-        momentum = geometry.along_pair(context.velocities) * mass
+        momentum = geometry.relative_velocity_along_pair(context.velocities) * mass
         w = collision_weight(geometry.weight, density, cutoff)
-        return collision_magnitude(w, momentum, delta_pi, pi0_, omega_)
+        return {"collision": collision_magnitude(w, momentum, delta_pi, pi0_, omega_)}
 
     return term
