@@ -29,9 +29,27 @@ def polymer_solution(
             }
         ],
     }
+    return _merged(data, sections)
+
+
+def _merged(data, sections) -> dict:
+    """`data` with whole sections replaced, except "solvent", which they update."""
     for name, value in sections.items():
         if name == "solvent":
             data["solvent"].update(value)
         else:
             data[name] = value
     return data
+
+
+def pure_solvent(density, angle, collision_time, length, seed=5, **sections) -> dict:
+    """An SRD fluid of ρ = density per cell (a = 1) in a cubic box of edge `length`,
+    α = angle (degrees), h = collision_time; `sections` as in `polymer_solution`."""
+    data = {
+        "seed": seed,
+        "precision": "float64",
+        "box": {"lengths": [length] * 3},
+        "particles": {"density": density},
+        "solvent": {"method": "mpcd", "rotation_angle": angle, "collision_time": collision_time},
+    }
+    return _merged(data, sections)

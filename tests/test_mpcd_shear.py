@@ -16,7 +16,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from mpcd_scenes import polymer_solution
+from mpcd_scenes import polymer_solution, pure_solvent
 
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd import driver
@@ -37,24 +37,17 @@ def thermostatted_scene(density, angle, collision_time, length, sheared=True, mo
     flow = {"flow": {"kind": "shear", "shear_rate": SHEAR_RATE}} if sheared else {}
     observables = ["temperature", "pressure", "profile"] if sheared else ["transverse_current"]
     return Scene.from_dict(
-        {
-            "seed": 3,
-            "precision": "float32",
-            "box": {"lengths": [length] * 3},
-            "particles": {"density": density},
-            "solvent": {
-                "method": "mpcd",
-                "rotation_angle": angle,
-                "collision_time": collision_time,
-                "thermostat": "maxwell_boltzmann_scaling",
-            },
+        pure_solvent(
+            density,
+            angle,
+            collision_time,
+            length,
+            seed=3,
+            precision="float32",
+            solvent={"thermostat": "maxwell_boltzmann_scaling"},
+            output={"observables": observables, "profile_bins": 6, "current_modes": modes},
             **flow,
-            "output": {
-                "observables": observables,
-                "profile_bins": 6,
-                "current_modes": modes,
-            },
-        }
+        )
     )
 
 

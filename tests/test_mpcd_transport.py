@@ -16,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from mpcd_scenes import pure_solvent
 
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd import driver, noise
@@ -33,18 +34,14 @@ def _solvent_scene(
     density, angle, collision_time, length, observables, precision="float64", modes=3
 ):
     return Scene.from_dict(
-        {
-            "seed": 5,
-            "precision": precision,
-            "box": {"lengths": [length] * 3},
-            "particles": {"density": density},
-            "solvent": {
-                "method": "mpcd",
-                "rotation_angle": angle,
-                "collision_time": collision_time,
-            },
-            "output": {"observables": observables, "current_modes": modes},
-        }
+        pure_solvent(
+            density,
+            angle,
+            collision_time,
+            length,
+            precision=precision,
+            output={"observables": observables, "current_modes": modes},
+        )
     )
 
 
