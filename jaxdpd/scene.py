@@ -57,7 +57,9 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 along y); trajectory_every (0 = never); correlator_every ≥ 1 (steps
                 between samples of the "dynamics" correlators), correlator_levels ≥ 1;
                 current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
-                current_modes; cubic boxes)
+                current_modes; cubic boxes); checkpoint_every (steps, 0 = only at
+                the end, on errors and on SIGINT/SIGTERM); trajectory_every and
+                checkpoint_every are multiples of run.chunk
 """
 
 import json
@@ -97,6 +99,7 @@ OBSERVABLES = (
     "transverse_current",
 )
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
+MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
 @dataclass(frozen=True)
@@ -249,6 +252,7 @@ class Output:
     current_modes: int = 3
     rdf_max: float = 3.0
     trajectory_every: int = 0
+    checkpoint_every: int = 0
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
@@ -631,7 +635,9 @@ def _read_particles(section, lengths, chain_lengths: dict):
     if "density" in section:
         density = read_number(section, "density", "particles", minimum=0, exclusive_minimum=True)
     if "count" in section:
-        count = read_number(section, "count", "particles", minimum=2, integer=True)
+        count = read_number(
+            section, "count", "particles", minimum=2, maximum=MAX_PARTICLES, integer=True
+        )
     if lengths is not None:
         volume = math.prod(lengths)
         if (density is None) == (count is None):
@@ -640,6 +646,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "and particles.count"
             )
         if count is None:
+            if not density * volume <= MAX_PARTICLES:
+                raise ValueError(
+                    f"particles.density = {density}: the box would hold {density * volume:.4g} "
+                    f"particles, more than {MAX_PARTICLES} (int32 particle indices)"
+                )
             count = round(density * volume)
             if count < 2:
                 raise ValueError(
@@ -653,6 +664,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "particles.count (the box is then cubic)"
             )
         side = (count / density) ** (1.0 / 3.0)
+        if not math.isfinite(side):
+            raise ValueError(
+                f"particles.density = {density}: a cubic box of {count} particles at this "
+                "density has no finite side; give a larger density"
+            )
         lengths = (side, side, side)
         density = count / math.prod(lengths)
     species = _read_species(section.get("species", [{"name": "solvent"}]), count, chain_lengths)
@@ -905,6 +921,7 @@ def _read_output(section, lengths, chunk: int) -> Output:
             "rdf_bins",
             "rdf_max",
             "trajectory_every",
+            "checkpoint_every",
             "correlator_every",
             "correlator_levels",
             "profile_bins",
@@ -917,14 +934,14 @@ def _read_output(section, lengths, chunk: int) -> Output:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")
     rdf_max = read_number(section, "rdf_max", "output", 3.0, minimum=0, exclusive_minimum=True)
-    trajectory_every = read_number(
-        section, "trajectory_every", "output", 0, minimum=0, integer=True
-    )
-    if trajectory_every % chunk:
-        raise ValueError(
-            f"output.trajectory_every = {trajectory_every}: frames are written at chunk ends, "
-            f"so it must be a multiple of run.chunk = {chunk} (or 0 for no frames)"
-        )
+    every = {}
+    for key, what in (("trajectory_every", "frames"), ("checkpoint_every", "checkpoints")):
+        every[key] = read_number(section, key, "output", 0, minimum=0, integer=True)
+        if every[key] % chunk:
+            raise ValueError(
+                f"output.{key} = {every[key]}: {what} are written at chunk ends, so it "
+                f"must be a multiple of run.chunk = {chunk} (or 0 for none)"
+            )
     if "rdf" in observables and not rdf_max < min(lengths) / 2:
         raise ValueError(
             f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
@@ -941,7 +958,7 @@ def _read_output(section, lengths, chunk: int) -> Output:
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
-        trajectory_every=trajectory_every,
+        **every,
         correlator_every=read_number(
             section, "correlator_every", "output", 10, minimum=1, integer=True
         ),
