@@ -43,7 +43,7 @@ from jaxdpd.running_averages import RunningBlockAverages
 from jaxdpd.simulation import build
 
 # Components of the pressure tensor reported in the summary table.
-TENSOR_COMPONENTS = ((0, 1, "P_xy"), (0, 0, "P_xx"), (2, 2, "P_zz"))
+TENSOR_COMPONENTS = ((0, 1, "P_xy"), (1, 0, "P_yx"), (0, 0, "P_xx"), (2, 2, "P_zz"))
 
 
 @dataclass
@@ -315,7 +315,7 @@ class Run:
         """name -> (lag times, values) of the on-device chain correlators."""
         if state.observers is None:
             return {}
-        interval = self.scene.output.correlator_every * self.scene.integrator.dt
+        interval = self.scene.output.correlator_every * self.scene.step_time
         return chain_correlations(state.observers, interval)
 
     def _summary(self, state, rdf, correlations, wall: float) -> RunSummary:

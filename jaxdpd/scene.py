@@ -14,7 +14,9 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 given); lengths = [Lx, Ly, Lz] (optional, see particles)
     [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
                 oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
-                needs a Lees–Edwards box and solvent.method "dpd"
+                needs a Lees–Edwards box and solvent.method "dpd" or "mpcd" (MPCD
+                shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress is not
+                symmetric)
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
@@ -32,8 +34,20 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 kinematic_viscosity ν > 0, kinematic_bulk_viscosity ν_b > 0 (default
                 ν), friction ζ > 0 (bare bead–fluid friction), noise = "uniform"|
                 "gaussian"; units are the scene's own (e.g. Lennard-Jones units)
+                method = "mpcd" (stochastic rotation dynamics, Mussawisade et al. 2005
+                §II): kT > 0 (initial velocities, thermostat), cell_size a > 0
+                (every box edge a whole multiple ≥ 2), rotation_angle α in (0, 180]
+                degrees (default 130), collision_time h > 0 (default 0.1),
+                thermostat = "none" | "maxwell_boltzmann_scaling" (cell level,
+                Huang et al. 2010), collision = "cell" (SRD) | "particle" (the
+                solvent-free Rouse variant, §IV.A: every particle must be a monomer);
+                particles per cell ρ = particles.density · a³.  Solvent particles
+                stream freely; monomers move by velocity Verlet with integrator.dt =
+                h_p (h/h_p a whole number, default h_p = h) and join the collisions
+                with their species masses
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
-                {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen)
+                {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen; with mpcd it acts
+                among the [[polymers]] species only)
                 kind = "wca": epsilon > 0, sigma > 0 (Weeks–Chandler–Andersen,
                 cut-off 2^(1/6) σ)
     [[polymers]] species = name of a particle species whose particles are chained,
@@ -42,7 +56,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
                 (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd, lowe_andersen and lattice_boltzmann solvents
+                wca_sigma = 1); dpd, lowe_andersen, lattice_boltzmann and mpcd solvents
+                (with mpcd the chained species must be adjacent in particles.species)
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
@@ -53,14 +68,15 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation", "dynamics", "profile"} (default
-                temperature and pressure; no pressure with lattice_boltzmann); rdf_bins,
-                rdf_max; profile_bins ≥ 1 (slabs along y);
-                trajectory_every (0 = never); correlator_every ≥ 1 (steps between
-                samples of the "dynamics" correlators), correlator_levels ≥ 1;
-                checkpoint_every (steps, 0 = only at the end, on errors and on
-                SIGINT/SIGTERM); trajectory_every and checkpoint_every are multiples
-                of run.chunk
+                "pressure", "rdf", "conformation", "dynamics", "profile",
+                "transverse_current"} (default temperature and pressure; no pressure with
+                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs
+                along y); trajectory_every (0 = never); correlator_every ≥ 1 (steps
+                between samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
+                current_modes; cubic boxes); checkpoint_every (steps, 0 = only at
+                the end, on errors and on SIGINT/SIGTERM); trajectory_every and
+                checkpoint_every are multiples of run.chunk
 """
 
 import json
@@ -69,6 +85,7 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 
 from jaxdpd.boxes import make_box
+from jaxdpd.mpcd.cells import collision_grid
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -78,7 +95,9 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen", "lattice_boltzmann")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen", "lattice_boltzmann", "mpcd")
+MPCD_THERMOSTATS = ("none", "maxwell_boltzmann_scaling")
+MPCD_COLLISIONS = ("cell", "particle")
 LOWE_ANDERSEN_KEYS = ("collision_frequency", "thermalization_cutoff")
 LATTICE_BOLTZMANN_FIELDS = (
     "grid_spacing",
@@ -99,8 +118,16 @@ JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
 BOX_KINDS = ("periodic", "lees_edwards")
 FLOW_KINDS = ("shear",)
 BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
-FLOW_SOLVENTS = ("dpd", "lowe_andersen")
-OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
+FLOW_SOLVENTS = ("dpd", "lowe_andersen", "mpcd")
+OBSERVABLES = (
+    "temperature",
+    "pressure",
+    "rdf",
+    "conformation",
+    "dynamics",
+    "profile",
+    "transverse_current",
+)
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
@@ -165,11 +192,21 @@ class Solvent:
     kinematic_viscosity: float = 1.0
     kinematic_bulk_viscosity: float = 1.0
     friction: float = 1.0
+    cell_size: float = 1.0
+    rotation_angle: float = 130.0
+    collision_time: float = 0.1
+    thermostat: str = "none"
+    collision: str = "cell"
 
     @property
     def sigma(self) -> float:
         """Random-force amplitude σ = √(2 γ k_BT) (thesis eq. 2.8)."""
         return math.sqrt(2 * self.gamma * self.kT)
+
+    @property
+    def rotation_angle_radians(self) -> float:
+        """The MPCD rotation angle α in radians (the scene gives degrees)."""
+        return math.radians(self.rotation_angle)
 
 
 @dataclass(frozen=True)
@@ -253,6 +290,7 @@ class Output:
     path: str | None = None
     observables: tuple[str, ...] = ("temperature", "pressure")
     rdf_bins: int = 100
+    current_modes: int = 3
     rdf_max: float = 3.0
     trajectory_every: int = 0
     checkpoint_every: int = 0
@@ -369,8 +407,15 @@ class Scene:
         if solvent.method == "lattice_boltzmann":
             _check_lattice(solvent, lengths, integrator)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
+        if solvent.method == "mpcd":
+            _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), heights, run.chunk, solvent)
+        if "transverse_current" in output.observables and len(set(lengths)) != 1:
+            raise ValueError(
+                f"output.observables: 'transverse_current' averages the six transverse pairs "
+                f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
+            )
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
@@ -404,6 +449,14 @@ class Scene:
     def n_particles(self) -> int:
         """Total number of particles N."""
         return self.particles.count
+
+    @property
+    def step_time(self) -> float:
+        """Simulated time per step: the collision time h of an MPCD solvent (its
+        monomer sub-steps integrator.dt run inside the step), else integrator.dt."""
+        if self.solvent.method == "mpcd":
+            return self.solvent.collision_time
+        return self.integrator.dt
 
     @property
     def volume(self) -> float:
@@ -485,6 +538,10 @@ def _solvent_dict(solvent: Solvent) -> dict:
     if solvent.method == "lattice_boltzmann":
         fields = {name: getattr(solvent, name) for name in LATTICE_BOLTZMANN_FIELDS}
         return {"method": solvent.method, "kT": solvent.kT, "noise": solvent.noise, **fields}
+    if solvent.method == "mpcd":
+        return {"method": "mpcd", "kT": solvent.kT} | {
+            key: getattr(solvent, key) for key in MPCD_FIELDS
+        }
     if solvent.method == "dpd":
         return {
             "method": "dpd",
@@ -509,39 +566,65 @@ def _solvent_dict(solvent: Solvent) -> dict:
     }
 
 
+MPCD_FIELDS = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
+HOOGERBRUGGE_KOELMAN_FIELDS = ("pi0", "omega", "delta_pi")
+DPD_FIELDS = ("gamma", "sigma", "noise")
+
+
+SOLVENT_FIELDS = {
+    "dpd": DPD_FIELDS,
+    "hoogerbrugge_koelman": HOOGERBRUGGE_KOELMAN_FIELDS,
+    "lowe_andersen": LOWE_ANDERSEN_KEYS,
+    "lattice_boltzmann": (*LATTICE_BOLTZMANN_FIELDS, "noise"),
+    "mpcd": MPCD_FIELDS,
+}
+
+
+def _refuse_fields_of_other_methods(section, method: str) -> None:
+    """Fields that belong to another solvent method are an error, not ignored."""
+    own = set(SOLVENT_FIELDS[method])
+    for owner, fields in SOLVENT_FIELDS.items():
+        misplaced = sorted((set(fields) - own) & set(section))
+        if owner != method and misplaced:
+            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
+
+
+def _read_mpcd_solvent(section) -> Solvent:
+    """The MPCD (SRD) solvent fields (module docstring)."""
+    path = "solvent"
+    return Solvent(
+        "mpcd",
+        kT=read_number(section, "kT", path, 1.0, minimum=0, exclusive_minimum=True),
+        cell_size=read_number(section, "cell_size", path, 1.0, minimum=0, exclusive_minimum=True),
+        rotation_angle=read_number(
+            section, "rotation_angle", path, 130.0, minimum=0, exclusive_minimum=True, maximum=180
+        ),
+        collision_time=read_number(
+            section, "collision_time", path, 0.1, minimum=0, exclusive_minimum=True
+        ),
+        thermostat=read_choice(section, "thermostat", path, MPCD_THERMOSTATS, "none"),
+        collision=read_choice(section, "collision", path, MPCD_COLLISIONS, "cell"),
+    )
+
+
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        (
-            "method",
-            "kT",
-            "gamma",
-            "sigma",
-            "noise",
-            "pi0",
-            "omega",
-            "delta_pi",
-            *LOWE_ANDERSEN_KEYS,
-            *LATTICE_BOLTZMANN_FIELDS,
-        ),
+        ("method", "kT", *(field for fields in SOLVENT_FIELDS.values() for field in fields)),
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
-    if method == "lowe_andersen":
-        return _read_lowe_andersen(section)
-    if method == "lattice_boltzmann":
-        return _read_lattice_boltzmann(section)
-    for owner, keys in (
-        ("lowe_andersen", LOWE_ANDERSEN_KEYS),
-        ("lattice_boltzmann", LATTICE_BOLTZMANN_FIELDS),
-    ):
-        misplaced = sorted(set(keys) & set(section))
-        if misplaced:
-            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
+    readers = {
+        "lowe_andersen": _read_lowe_andersen,
+        "lattice_boltzmann": _read_lattice_boltzmann,
+        "mpcd": _read_mpcd_solvent,
+    }
+    if method in readers:
+        solvent = readers[method](section)  # their own messages for common mistakes
+        _refuse_fields_of_other_methods(section, method)
+        return solvent
+    _refuse_fields_of_other_methods(section, method)
     if method == "dpd":
-        misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
-        if misplaced:
-            raise ValueError(f"solvent: {misplaced} belong to method 'hoogerbrugge_koelman'")
         kT = read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True)
         gamma = read_number(section, "gamma", "solvent", 4.5, minimum=0)
         if "sigma" in section:
@@ -555,9 +638,8 @@ def _read_solvent(section) -> Solvent:
                 )
         noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
         return Solvent(method, kT=kT, gamma=gamma, noise=noise)
-    misplaced = sorted({"kT", "gamma", "sigma", "noise"} & set(section))
-    if misplaced:
-        raise ValueError(f"solvent: {misplaced} belong to method 'dpd', not {method!r}")
+    if "kT" in section:
+        raise ValueError(f"solvent: ['kT'] belongs to methods 'dpd' and 'mpcd', not {method!r}")
     return Solvent(
         method,
         pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
@@ -928,10 +1010,10 @@ def _polymer_entries(entries) -> list:
 
 
 def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
-    if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann"):
+    if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann", "mpcd"):
         raise ValueError(
-            "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen' or "
-            f"'lattice_boltzmann' (got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen', "
+            f"'lattice_boltzmann' or 'mpcd' (got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -999,12 +1081,55 @@ def _read_integrator(section, solvent: Solvent) -> Integrator:
             "integrator.lambda: the beads in a lattice-Boltzmann solvent move by velocity "
             "Verlet around the friction step (no λ); remove it"
         )
-    default_dt = {"hoogerbrugge_koelman": 1.0, "lattice_boltzmann": solvent.time_step}.get(
-        solvent.method, 0.04
-    )
+    default_dt = {
+        "hoogerbrugge_koelman": 1.0,
+        "lattice_boltzmann": solvent.time_step,
+        "mpcd": solvent.collision_time,
+    }.get(solvent.method, 0.04)
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
+    if solvent.method == "mpcd":
+        h = solvent.collision_time
+        substeps = round(h / dt)
+        if substeps < 1 or abs(substeps * dt - h) > 1e-9 * h:
+            raise ValueError(
+                f"integrator.dt = {dt!r}: the monomer sub-step h_p must divide "
+                f"solvent.collision_time h = {h!r} a whole number of times (h/h_p = "
+                f"{h / dt:.6g}); e.g. dt = {h / max(1, math.ceil(h / dt)):.6g}"
+            )
+        if lam != 0.5:
+            raise ValueError(
+                f"integrator.lambda = {lam!r}: MPCD monomers move by plain velocity "
+                "Verlet (λ = 0.5; Mussawisade et al. §II); remove integrator.lambda"
+            )
     return Integrator(dt=dt, lambda_=lam)
+
+
+def _check_mpcd(solvent: Solvent, lengths, species, polymers, pair) -> None:
+    """Cross-section checks of an MPCD scene (module docstring)."""
+    collision_grid(lengths, solvent.cell_size)
+    chained = {p.species for p in polymers}
+    names = [s.name for s in species]
+    positions = [k for k, name in enumerate(names) if name in chained]
+    if positions and positions[-1] - positions[0] + 1 != len(positions):
+        raise ValueError(
+            f"particles.species: with solvent.method = 'mpcd' the chained species "
+            f"{sorted(chained)} must be adjacent in the species list (monomers form one "
+            f"index range); reorder {names}"
+        )
+    if solvent.collision == "particle" and set(names) != chained:
+        free = [name for name in names if name not in chained]
+        raise ValueError(
+            f"solvent.collision = 'particle' is the solvent-free Rouse variant (every "
+            f"monomer's velocity rotated alone); species {free} are not chained: give "
+            "them [[polymers]] entries, remove them, or use collision = 'cell'"
+        )
+    if pair is not None and not chained:
+        raise ValueError(
+            "pair: with solvent.method = 'mpcd' pair forces act among the [[polymers]] "
+            "species only (solvent particles feel no forces); add [[polymers]] or remove "
+            "the [pair] section"
+        )
 
 
 def _read_run(section) -> Run:
@@ -1029,6 +1154,7 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             "correlator_every",
             "correlator_levels",
             "profile_bins",
+            "current_modes",
         ),
         "output",
     )
@@ -1059,6 +1185,7 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
         )
     return Output(
         path=read_string(section, "path", "output", None),
+        current_modes=read_number(section, "current_modes", "output", 3, minimum=1, integer=True),
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,

@@ -7,9 +7,11 @@ kernel, without [body_force] no external force, with no pair term or thermostat 
 all no neighbour search, and in a box at rest (no [flow]) no flow arithmetic.  With
 solvent.method = "lattice_boltzmann" the particles are beads coupled by friction to
 a lattice-Boltzmann fluid kept in SimState.solvent_state (jaxdpd.lattice_boltzmann);
-with its k_BT = 0 no noise is traced.
+with its k_BT = 0 no noise is traced.  With an MPCD solvent only the monomers feel
+forces: the force kernel and its neighbour search cover their index range alone.
 """
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,6 +30,7 @@ from jaxdpd.integrators import (
 )
 from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
 from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
+from jaxdpd.mpcd.step import mpcd_step
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_correlators import (
     init_chain_correlators,
@@ -37,6 +40,7 @@ from jaxdpd.observables.chain_correlators import (
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
+from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
 from jaxdpd.placement import initial_configuration
@@ -117,58 +121,27 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
-def particle_masses(scene: Scene, dtype):
-    """(N,) particle masses in species order, or None when every mass is 1 (then no
-    mass arithmetic is traced)."""
-    species = scene.particles.species
-    if all(s.mass == 1.0 for s in species):
-        return None
-    return jnp.repeat(
-        jnp.asarray([s.mass for s in species], dtype),
-        jnp.asarray([s.count for s in species]),
-        total_repeat_length=scene.n_particles,
-    )
+def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, body_force):
+    """The composed force kernel: the pair terms, the body force and the springs of
+    every chain block.
 
+    It acts on one contiguous range of particles: all of them, or the monomers of an
+    MPCD scene (then the positions and state it is given hold those rows only, the
+    neighbour search covers them alone and `blocks` index within the range).
 
-def thermalization_cutoff(scene: Scene) -> float | None:
-    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
-    solvent = scene.solvent
-    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
-        return None
-    if solvent.thermalization_cutoff is None:
-        return scene.cutoff
-    return solvent.thermalization_cutoff
-
-
-@functools.lru_cache(maxsize=16)
-def build(scene: Scene) -> Simulation:
-    """Compose the scene's simulation (see the module docstring).
-
-    Cached per scene, so building an equal scene again reuses the compiled chunks.
+    Args:
+        box: the static box (bound to each state's box_state).
+        terms: pair terms (`pair_terms`), maybe empty.
+        search: the neighbour backend over the range (None without pair terms or
+            thermostat).
+        blocks: ChainBlocks indexed within the range.
+        cutoff: r_c of the pair terms.
+        with_virial: compute the virial parts (else none).
+        body_force: `body_force(positions) -> (N, 3)` or None.
+    Returns:
+        `interactions(positions, velocities, state) -> (vectors, virial parts
+        {name: (3, 3)}, pair_list, error bits)`.
     """
-    dtype = jnp.dtype(scene.precision)
-    box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
-    n = scene.n_particles
-    terms = pair_terms(scene, dtype)
-    blocks = chain_blocks(scene)
-    with_virial = "pressure" in scene.output.observables
-    masses = particle_masses(scene, dtype)
-    bath_cutoff = thermalization_cutoff(scene)
-    body_force = None
-    if scene.body_force is not None:
-        body_force = cosine_body_force(
-            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
-        )
-    search = None
-    if terms or bath_cutoff is not None:
-        search = neighbor_search(
-            box,
-            n,
-            max(scene.cutoff, bath_cutoff or 0.0),
-            scene.neighbors.skin,
-            scene.neighbors.method,
-            scene.neighbors.format,
-        )
 
     def pair_interactions(bound_box, positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
@@ -177,7 +150,7 @@ def build(scene: Scene) -> Simulation:
         pair_list = search.update(positions, state.pair_list, state.box_state)
         if not terms:  # the list serves the thermostat alone
             return jnp.zeros_like(positions), {}, pair_list
-        geometry = pair_geometry(bound_box, positions, pair_list, scene.cutoff, search.half)
+        geometry = pair_geometry(bound_box, positions, pair_list, cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
         parts = {}
@@ -215,12 +188,85 @@ def build(scene: Scene) -> Simulation:
             )
         return vectors, virial, pair_list, bits
 
+    return interactions
+
+
+def force_range(scene: Scene, blocks) -> tuple[int, int]:
+    """The index range (first, stop) of the particles that feel forces: all of them,
+    or with an MPCD solvent the monomers only ((0, 0) without polymers)."""
+    if scene.solvent.method != "mpcd":
+        return 0, scene.n_particles
+    if not blocks:
+        return 0, 0
+    return min(b.first for b in blocks), max(b.stop for b in blocks)
+
+
+def particle_masses(scene: Scene, dtype):
+    """(N,) particle masses in species order, or None when every mass is 1 (then no
+    mass arithmetic is traced)."""
+    species = scene.particles.species
+    if all(s.mass == 1.0 for s in species):
+        return None
+    return jnp.repeat(
+        jnp.asarray([s.mass for s in species], dtype),
+        jnp.asarray([s.count for s in species]),
+        total_repeat_length=scene.n_particles,
+    )
+
+
+def thermalization_cutoff(scene: Scene) -> float | None:
+    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
+    solvent = scene.solvent
+    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
+        return None
+    if solvent.thermalization_cutoff is None:
+        return scene.cutoff
+    return solvent.thermalization_cutoff
+
+
+@functools.lru_cache(maxsize=16)
+def build(scene: Scene) -> Simulation:
+    """Compose the scene's simulation (see the module docstring).
+
+    Cached per scene, so building an equal scene again reuses the compiled chunks.
+    """
+    dtype = jnp.dtype(scene.precision)
+    box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
+    terms = pair_terms(scene, dtype)
+    blocks = chain_blocks(scene)
+    first, stop = force_range(scene, blocks)
+    local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
+    with_virial = "pressure" in scene.output.observables
+    masses = particle_masses(scene, dtype)
+    bath_cutoff = thermalization_cutoff(scene)
+    body_force = None
+    if scene.body_force is not None:
+        body_force = cosine_body_force(
+            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
+        )
+    search = None
+    if terms or bath_cutoff is not None:
+        search = neighbor_search(
+            box,
+            stop - first,
+            max(scene.cutoff, bath_cutoff or 0.0),
+            scene.neighbors.skin,
+            scene.neighbors.method,
+            scene.neighbors.format,
+        )
+
+    interactions = force_kernel(
+        box, terms, search, local_blocks, scene.cutoff, with_virial, body_force
+    )
+
     fluid = None
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+    elif scene.solvent.method == "mpcd":
+        advance = mpcd_step(scene, box, interactions, masses, (first, stop), with_virial, dtype)
     elif bath_cutoff is not None:
         lowe_andersen = lowe_andersen_thermostat(
-            n,
+            scene.n_particles,
             min(1.0, scene.solvent.collision_frequency * scene.integrator.dt),
             scene.solvent.kT,
             bath_cutoff,
@@ -285,6 +331,10 @@ def build(scene: Scene) -> Simulation:
                     bound_box, state.positions, state.velocities, masses, scene.output.profile_bins
                 )
             )
+        if "transverse_current" in observables:
+            samples["transverse_current"] = transverse_currents(
+                state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
+            )
         if "dynamics" in observables:
             observers = sample_every(
                 state.step,
@@ -308,7 +358,8 @@ def build(scene: Scene) -> Simulation:
     def allocate_pairs(positions, box_state, minimum=None):
         if search is None:
             return _empty_pair_list(positions)
-        return search.allocate(positions, scene.neighbors.capacity_multiplier, minimum, box_state)
+        rows = positions[first:stop]
+        return search.allocate(rows, scene.neighbors.capacity_multiplier, minimum, box_state)
 
     def init_fn():
         positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
@@ -327,20 +378,26 @@ def build(scene: Scene) -> Simulation:
             flags=jnp.asarray(0, jnp.int32),
             box_state=box_state,
         )
-        # Zeros of the virial parts a step records, so the state keeps one structure.
-        parts = jax.eval_shape(interactions, positions, velocities, state)[1]
-        if bath_cutoff is not None and with_virial:
-            parts = {**parts, "impulse": jax.ShapeDtypeStruct((3, 3), dtype)}
-        state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
-        state = init_observers(state)
-        if scene.solvent.method != "hoogerbrugge_koelman":
-            forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
-            virial = {**state.virial, **virial}  # keeps the thermostat's "impulse" zeros
-            state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
         if bath_cutoff is not None:
             state = state.set(solvent_state=empty_record(dtype))
         if fluid is not None:
             state = state.set(solvent_state=initial_fluid_state(fluid, scene.seed, dtype))
+        # Zeros of the virial parts a step records, so the state keeps one structure.
+        parts = jax.eval_shape(advance, state).virial
+        state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
+        state = init_observers(state)
+        if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
+            rows = slice(first, stop)
+            sub = state.set(image=image[rows], species=species[rows])
+            forces, virial, pair_list, bits = jax.jit(interactions)(
+                positions[rows], velocities[rows], sub
+            )
+            state = state.set(
+                forces=state.forces.at[rows].set(forces),
+                virial={**state.virial, **virial},
+                pair_list=pair_list,
+                flags=bits,
+            )
         return state
 
     def reallocate(state, minimum):
