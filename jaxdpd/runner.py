@@ -19,6 +19,7 @@ from jaxdpd.observables.chain_correlators import (
 )
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
+from jaxdpd.observables.rheology import summary_rows
 from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
 
@@ -187,6 +188,8 @@ def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) 
     if len(chunk_ends) > 1:
         (t0, s0), (t1, s1) = chunk_ends[0], chunk_ends[-1]
         summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-    summary.averages = _averages(series) | center_of_mass_diffusion(correlations)
+    summary.averages = (
+        _averages(series) | center_of_mass_diffusion(correlations) | summary_rows(scene, series)
+    )
     summary.references = ideal_references(simulation.blocks, scene.solvent.kT)
     return summary

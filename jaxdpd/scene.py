@@ -32,12 +32,16 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 wca_sigma = 1); dpd solvents only
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
+                kind = "tagged": amplitude F, species = name: f_x = F on each of the
+                k particles of that species, −k F/(N − k) on every other one (drag
+                coefficient, thesis §4.2.4)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation", "dynamics", "profile"}; rdf_bins,
+                "pressure", "rdf", "conformation", "dynamics", "profile", "drag"
+                (needs body_force.kind = "tagged")}; rdf_bins,
                 rdf_max; profile_bins ≥ 1 (slabs along y);
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
                 samples of the "dynamics" correlators), correlator_levels ≥ 1
@@ -67,7 +71,8 @@ BOX_KINDS = ("periodic", "lees_edwards")
 FLOW_KINDS = ("shear",)
 BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
 FLOW_SOLVENTS = ("dpd",)
-OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
+OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile", "drag")
+BODY_FORCE_KINDS = ("cosine", "tagged")
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
 
 
@@ -164,14 +169,17 @@ class BodyForce:
     """An external force on every particle (jaxdpd.forcing).
 
     Attributes:
-        kind: "cosine": f_x = amplitude cos(2π waves y / L_y).
-        amplitude: F, force per particle.
-        waves: n, periods across the box along y.
+        kind: "cosine": f_x = amplitude cos(2π waves y / L_y); "tagged": f_x =
+            amplitude on the particles of `species`, −amplitude k/(N − k) on the others.
+        amplitude: F, force per (tagged) particle.
+        waves: n, periods across the box along y (cosine).
+        species: the tagged species (tagged).
     """
 
     kind: str
     amplitude: float
     waves: int = 1
+    species: str | None = None
 
 
 @dataclass(frozen=True)
@@ -324,6 +332,12 @@ class Scene:
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
                 "rest; under flow, measure the chains with 'conformation'"
             )
+        body_force = _read_body_force(data.get("body_force"), solvent, particles)
+        if "drag" in output.observables and _kind(body_force) != "tagged":
+            raise ValueError(
+                "output.observables: 'drag' measures the drift of tagged particles; add "
+                "[body_force] kind = 'tagged' with their species, or remove it"
+            )
         for name in POLYMER_OBSERVABLES:
             if name in output.observables and not polymers:
                 raise ValueError(
@@ -341,7 +355,7 @@ class Scene:
             integrator=integrator,
             polymers=polymers,
             flow=flow,
-            body_force=_read_body_force(data.get("body_force"), solvent),
+            body_force=body_force,
             neighbors=neighbors,
             run=run,
             output=output,
@@ -387,6 +401,10 @@ class Scene:
             del data["polymers"]
         if self.body_force is None:
             del data["body_force"]
+        elif self.body_force.kind == "cosine":
+            del data["body_force"]["species"]
+        else:
+            del data["body_force"]["waves"]
         if self.flow is None:
             del data["flow"]
         elif self.flow.oscillation_frequency is None:
@@ -467,8 +485,8 @@ def _read_solvent(section) -> Solvent:
     )
 
 
-def _kind(flow: Flow | None) -> str | None:
-    return None if flow is None else flow.kind
+def _kind(section: Flow | BodyForce | None) -> str | None:
+    return None if section is None else section.kind
 
 
 def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
@@ -493,20 +511,36 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     return Flow(kind, shear_rate, frequency)
 
 
-def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
+def _read_body_force(section, solvent: Solvent, particles: Particles) -> BodyForce | None:
     if section is None:
         return None
-    check_keys(section, ("kind", "amplitude", "waves"), "body_force")
+    check_keys(section, ("kind", "amplitude", "waves", "species"), "body_force")
     if solvent.method != "dpd":
         raise ValueError(
             f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
             f"not {solvent.method!r}"
         )
-    return BodyForce(
-        kind=read_choice(section, "kind", "body_force", ("cosine",)),
-        amplitude=read_number(section, "amplitude", "body_force"),
-        waves=read_number(section, "waves", "body_force", 1, minimum=1, integer=True),
-    )
+    kind = read_choice(section, "kind", "body_force", BODY_FORCE_KINDS)
+    amplitude = read_number(section, "amplitude", "body_force")
+    if kind == "cosine":
+        if "species" in section:
+            raise ValueError("body_force.species: only used with body_force.kind = 'tagged'")
+        waves = read_number(section, "waves", "body_force", 1, minimum=1, integer=True)
+        return BodyForce(kind, amplitude, waves)
+    if "waves" in section:
+        raise ValueError("body_force.waves: only used with body_force.kind = 'cosine'")
+    species = read_string(section, "species", "body_force")
+    counts = {s.name: s.count for s in particles.species}
+    if species not in counts:
+        raise ValueError(
+            f"body_force.species = {species!r}: not a particle species; species are {list(counts)}"
+        )
+    if not 1 <= counts[species] < particles.count:
+        raise ValueError(
+            f"body_force.species = {species!r} has {counts[species]} particles: the tagged "
+            "force needs at least one tagged and one untagged particle"
+        )
+    return BodyForce(kind, amplitude, species=species)
 
 
 def _read_neighbors(section) -> Neighbors:

@@ -5,6 +5,9 @@ conservative force, with γ = 0 no dissipative or random force, without "pressur
 no virial, without [[polymers]] no bond kernel, without [body_force] no external
 force, with no pair term at all no
 neighbour search, and in a box at rest (no [flow]) no flow arithmetic.
+
+The bond constants and the body-force amplitude are read from
+`SimState.parameters` (jaxdpd.parameters): one compiled step serves every value.
 """
 
 import functools
@@ -17,7 +20,7 @@ import jax.numpy as jnp
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import make_box
-from jaxdpd.forcing import cosine_body_force
+from jaxdpd.forcing import cosine_body_force, tagged_body_force
 from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_correlators import (
@@ -26,10 +29,12 @@ from jaxdpd.observables.chain_correlators import (
     update_chain_correlators,
 )
 from jaxdpd.observables.chain_series import conformation_samples
+from jaxdpd.observables.drag import relative_velocity_samples
 from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.pairs import soft_repulsion_term
 from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
+from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
@@ -105,6 +110,28 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
+def species_range(scene: Scene, name: str) -> tuple[int, int]:
+    """(first index, count) of the particles of species `name` (stored species
+    after species)."""
+    first = 0
+    for species in scene.particles.species:
+        if species.name == name:
+            return first, species.count
+        first += species.count
+    raise ValueError(f"species {name!r}: not in the scene's species {scene.species_names}")
+
+
+def body_force_law(scene: Scene, dtype):
+    """`force(positions, amplitude)` of the scene's [body_force], or None."""
+    section = scene.body_force
+    if section is None:
+        return None
+    if section.kind == "cosine":
+        return cosine_body_force(section.waves, scene.box.lengths[1], dtype)
+    first, count = species_range(scene, section.species)
+    return tagged_body_force(first, count, scene.n_particles, dtype)
+
+
 def particle_masses(scene: Scene, dtype):
     """(N,) particle masses in species order, or None when every mass is 1 (then no
     mass arithmetic is traced)."""
@@ -131,11 +158,7 @@ def build(scene: Scene) -> Simulation:
     blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
-    body_force = None
-    if scene.body_force is not None:
-        body_force = cosine_body_force(
-            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
-        )
+    body_force = body_force_law(scene, dtype)
     search = None
     if terms:
         search = neighbor_search(
@@ -174,11 +197,12 @@ def build(scene: Scene) -> Simulation:
         bound_box = box.bind(state.box_state)
         vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
         if body_force is not None:
-            vectors = vectors + body_force(positions)
+            vectors = vectors + body_force(positions, state.parameters["body_force"]["amplitude"])
         bits = jnp.asarray(0, jnp.int32)
         for block in blocks:
+            law = block.law.with_parameters(state.parameters["bond"][block.species])
             bonded = chain_bond_forces(
-                bound_box, block.take(positions), block.take(state.image), block.law, with_virial
+                bound_box, block.take(positions), block.take(state.image), law, with_virial
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
             if with_virial:
@@ -204,13 +228,20 @@ def build(scene: Scene) -> Simulation:
         )
 
     observables = scene.output.observables
+    tagged_range = None
+    if "drag" in observables:
+        tagged_range = species_range(scene, scene.body_force.species)
 
     def step_fn(state):
         state = advance(state)
         samples = step_samples(observables, state, masses)
         bound_box = box.bind(state.box_state)
         if "conformation" in observables:
-            samples.update(conformation_samples(bound_box, state.positions, blocks))
+            samples.update(
+                conformation_samples(bound_box, state.positions, blocks, state.parameters)
+            )
+        if "drag" in observables:
+            samples.update(relative_velocity_samples(state.velocities, tagged_range))
         if "profile" in observables:
             samples.update(
                 profile_samples(
@@ -258,6 +289,7 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
             box_state=box_state,
+            parameters=scene_parameters(scene, blocks, dtype),
         )
         # Zeros of the virial parts a step records, so the state keeps one structure.
         parts = jax.eval_shape(interactions, positions, velocities, state)[1]
