@@ -53,7 +53,8 @@ def with_parameters(state, updates: dict):
             `scene_parameters`.
         updates: a nested dict with the same keys as (part of) `state.parameters`,
             e.g. {"bond": {"dumbbell": {"spring_constant": 2.0}}}; values are
-            Python numbers or scalar arrays of the simulation's dtype.
+            Python numbers (taken at the simulation's precision) or scalar arrays of
+            the simulation's dtype.
     Returns:
         The updated state.
     Raises:
@@ -82,13 +83,10 @@ def _merge(current: dict, updates: dict, path: str) -> dict:
 
 
 def _scalar(value, like, path: str):
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        and not hasattr(value, "dtype")
-    ):
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not number and not hasattr(value, "dtype"):
         raise TypeError(f"{path}: expected a number, got {type(value).__name__} {value!r}")
-    if hasattr(value, "dtype"):
+    if not number:  # an array (NumPy float64 scalars are Python floats, taken as numbers)
         if jnp.ndim(value) != 0:
             raise ValueError(f"{path}: expected a scalar, got shape {jnp.shape(value)}")
         if jnp.issubdtype(value.dtype, jnp.floating) and value.dtype != like.dtype:

@@ -28,7 +28,7 @@ from jaxdpd.observables.chain_correlators import (
     sample_every,
     update_chain_correlators,
 )
-from jaxdpd.observables.chain_series import conformation_samples
+from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
 from jaxdpd.observables.drag import relative_velocity_samples
 from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
@@ -228,6 +228,13 @@ def build(scene: Scene) -> Simulation:
         )
 
     observables = scene.output.observables
+    spring_pair_strengths = []  # (block, a of its species with itself)
+    if {"conformation", "pressure"} <= set(observables) and scene.pair is not None:
+        names = scene.species_names
+        spring_pair_strengths = [
+            (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
+            for block in blocks
+        ]
     tagged_range = None
     if "drag" in observables:
         tagged_range = species_range(scene, scene.body_force.species)
@@ -240,6 +247,10 @@ def build(scene: Scene) -> Simulation:
             samples.update(
                 conformation_samples(bound_box, state.positions, blocks, state.parameters)
             )
+            for block, strength in spring_pair_strengths:
+                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
+                    bound_box, state.positions, block, strength, scene.cutoff, scene.volume
+                )
         if "drag" in observables:
             samples.update(relative_velocity_samples(state.velocities, tagged_range))
         if "profile" in observables:

@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import make_scene
+from dumbbell_scenes import sheared_solution_with_tracers
 
 import jaxdpd  # noqa: F401  (float64)
 from jaxdpd import brownian as bd
@@ -104,7 +104,7 @@ def _two_blocks():
     dumbbells = ChainBlock("dumbbell", 0, 3, 2, fene(2.0, 3.0, kT=1.0))
     chains = ChainBlock("chain", 6, 2, 4, hookean(3.0, kT=1.0))
     rng = np.random.default_rng(4)
-    springs = rng.uniform(-1.2, 1.2, size=(3 + 2 * 3, 3))
+    springs = rng.uniform(-0.9, 0.9, size=(3 + 2 * 3, 3))
     box = PeriodicBox((10.0, 11.0, 12.0))
     starts = rng.uniform(0, 10, size=(5, 3))
     unwrapped = [np.stack([starts[c], starts[c] + springs[c]]) for c in range(3)]
@@ -154,6 +154,21 @@ def test_conformation_samples_under_flow_quantities():
     np.testing.assert_allclose(
         jitted(positions, traced)["dumbbell/fractional_extension"], np.mean(length / 4.0)
     )
+
+
+def test_spring_pair_pressure_is_the_repulsion_across_each_spring():
+    """(1/V) Σ Q ⊗ a (1 − |Q|/r_c) Q/|Q| over springs shorter than r_c (thesis eq.
+    3.46 for the bonded pairs), by direct NumPy summation."""
+    box, positions, blocks, springs, _ = _two_blocks()
+    for block, q in ((blocks[0], springs[:3]), (blocks[1], springs[3:])):
+        result = chain_series.spring_pair_pressure(box, positions, block, 25.0, 1.0, box.volume)
+        expected = np.zeros((3, 3))
+        for spring in q:
+            length = np.linalg.norm(spring)
+            if length < 1.0:
+                expected += np.outer(spring, spring) * 25.0 * (1 - length) / length
+        assert np.any(expected != 0)
+        np.testing.assert_allclose(result, expected / box.volume, rtol=1e-12)
 
 
 @pytest.mark.parametrize("component", ["shear", "normal", "xx"])
@@ -209,50 +224,34 @@ def test_giesekus_drag_of_brownian_fene_dumbbells():
 def test_summary_rows_of_a_sheared_dumbbell_solution():
     """The run summary gets the material functions, the sheared ⟨QQ⟩ components, the
     Giesekus and tagged drag coefficients, each with the module functions' values."""
-    scene = make_scene(
-        particles={
-            "density": 3.0,
-            "count": 600,
-            "species": [
-                {"name": "dumbbell", "count": 150},
-                {"name": "tracer", "count": 6},
-                {"name": "solvent", "count": 444},
-            ],
-        },
-        polymers=[
-            {
-                "species": "dumbbell",
-                "beads": 2,
-                "bond": {"law": "fene", "spring_constant": 2.0, "max_extension": 2.5},
-            }
-        ],
-        flow={"kind": "shear", "shear_rate": 0.4},
-        body_force={"kind": "tagged", "amplitude": 1.5, "species": "tracer"},
-        output={"observables": ["temperature", "pressure", "conformation", "drag"]},
-    )
+    scene = sheared_solution_with_tracers()  # γ̇ = 0.3, 40 springs, 4 of 300 tagged, F = 1
     rng = np.random.default_rng(7)
     series = {
         "pressure_tensor": noisy_tensor_series(8)[:100],
         "pressure_tensor_part/kinetic": noisy_tensor_series(9)[:100],
         "pressure_tensor_part/bond": -0.2 + 0.01 * rng.normal(size=(100, 3, 3)),
         "dumbbell/bond_conformation": 0.5 + 0.01 * rng.normal(size=(100, 3, 3)),
+        "dumbbell/spring_pair_pressure": 0.05 + 0.01 * rng.normal(size=(100, 3, 3)),
         "drag/relative_velocity": 0.4 + 0.05 * rng.normal(size=(100, 3)),
     }
     rows = rheology.summary_rows(scene, series)
     assert rows["viscosity"][0] == pytest.approx(
-        float(rheology.material_functions(series["pressure_tensor"], 0.4)["viscosity"][0])
+        float(rheology.material_functions(series["pressure_tensor"], 0.3)["viscosity"][0])
     )
     for name in ("psi1", "psi2", "polymer/viscosity", "polymer/psi1", "viscosity_part/kinetic"):
         assert name in rows and np.isfinite(rows[name][1])
     for key in ("xy", "xx-yy", "yy-zz"):
         assert f"dumbbell/bond_conformation_{key}" in rows
-    density = 75 / scene.volume
+    density = 40 / scene.volume
     expected = giesekus_drag(
-        series["pressure_tensor_part/bond"], series["dumbbell/bond_conformation"], 0.4, density
+        series["pressure_tensor_part/bond"], series["dumbbell/bond_conformation"], 0.3, density
     )
     assert rows["dumbbell/drag_giesekus"][0] == pytest.approx(float(expected[0]))
+    total = series["pressure_tensor_part/bond"] + series["dumbbell/spring_pair_pressure"]
+    with_repulsion = giesekus_drag(total, series["dumbbell/bond_conformation"], 0.3, density)
+    assert rows["dumbbell/drag_giesekus_ev"][0] == pytest.approx(float(with_repulsion[0]))
     drift = series["drag/relative_velocity"][:, 0]
-    zeta = 1.5 * 599 / (594 * np.mean(drift[drift.size % 20 :]))
+    zeta = 1.0 * 299 / (296 * np.mean(drift[drift.size % 20 :]))
     assert rows["drag/zeta"][0] == pytest.approx(zeta)
     # Too short a series gives no rows; a box at rest no material functions.
     assert rheology.summary_rows(scene, {k: v[:10] for k, v in series.items()}) == {}

@@ -13,6 +13,11 @@ For each chain block (species) the step records, averaged over its chains:
     <species>/end_to_end_sq       ⟨R_e²⟩, R_e = r_M − r_1         (chains of M > 2)
     <species>/end_to_end_conformation   (3, 3) ⟨R_e R_e⟩            (M > 2)
     <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (M > 2)
+and, with "pressure" and a [pair] too (`spring_pair_pressure`):
+    <species>/spring_pair_pressure  (3, 3) the soft repulsion between the two beads
+                                  of every spring as a pressure tensor: the
+                                  intramolecular excluded-volume stress that DPD
+                                  adds to the springs' Kramers stress (thesis §4.2.6)
 Chains are reconstructed in one piece across periodic boundaries (thesis §3.2.4).
 `ideal_references` gives the values these would take without pair forces.
 """
@@ -27,6 +32,7 @@ from jaxdpd.observables.conformation import (
     fractional_extension,
     gyration_radius_squared,
 )
+from jaxdpd.pairs import soft_repulsion
 from jaxdpd.topology import chain_coordinates
 
 
@@ -63,6 +69,31 @@ def conformation_samples(box, positions, blocks, parameters=None) -> dict:
             )
             samples[f"{name}/gyration_radius_sq"] = jnp.mean(gyration_radius_squared(chains))
     return samples
+
+
+def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume: float):
+    """The conservative pair force across each spring of a block, as a pressure.
+
+    (1/V) Σ_springs Q ⊗ a (1 − Q/r_c) Q/|Q| for |Q| < r_c (thesis eq. 3.46 restricted
+    to the bonded pairs; positive = repulsive, as "pressure_tensor_part/conservative",
+    of which it is a part).  Only the two beads a spring joins are counted, not other
+    pairs of one chain.
+
+    Args:
+        box: the (bound) box.
+        positions: (N, 3) wrapped positions.
+        block: a ChainBlock.
+        strength: a of the block's species with itself (energy/length).
+        cutoff: r_c.
+        volume: box volume.
+    Returns:
+        (3, 3) tensor (units of pressure).
+    """
+    springs = bond_vectors(chain_coordinates(box, positions, block)).reshape(-1, 3)
+    length = jnp.sqrt(jnp.sum(springs * springs, axis=-1))
+    weight = jnp.clip(1 - length / cutoff, 0, None)
+    along = soft_repulsion(weight, strength) / jnp.maximum(length, jnp.finfo(length.dtype).tiny)
+    return jnp.einsum("k,ka,kb->ab", along, springs, springs) / volume
 
 
 def ideal_references(blocks, kT: float) -> dict:

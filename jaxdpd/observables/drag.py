@@ -35,9 +35,13 @@ compared.
     The "xx" form assumes the equilibrium ⟨Q F⟩ = k_BT δ of a free dumbbell; DPD
     dumbbells whose beads repel each other (Q < r_c) break it, which is the rise of
     ζ at low De in thesis fig. 4-3.  "shear" and "normal" use no equilibrium
-    value.  Giesekus's form assumes a constant isotropic friction and no
-    hydrodynamic interaction; DPD has both excluded volume and hydrodynamic
-    interaction, so (b) agrees with (a) only within those caveats.
+    value.  In the derivation F is the whole intramolecular force; in DPD that is
+    the spring plus the soft repulsion between the two beads (thesis §4.2.6), whose
+    stress the "conformation" observable records as "<species>/spring_pair_pressure"
+    (pass it as `intramolecular_pressure`; thesis eq. 4.18 itself uses the spring
+    alone).  Giesekus's form also assumes a constant isotropic friction and no
+    hydrodynamic interaction, which DPD has, so (b) agrees with (a) only within
+    those caveats.
 
 Error bars: block averages of the time series (jaxdpd.statistics), ratios by the
 delta method (`ratio_of_means`).  Leading replica axes (ensembles) are kept.
@@ -104,6 +108,7 @@ def giesekus_drag(
     kT: float = 1.0,
     component: str = "shear",
     n_blocks: int = 20,
+    intramolecular_pressure=None,
 ):
     """Drag coefficient of dumbbell beads from the Giesekus–Kramers comparison
     (method (b), thesis eq. 4.18; module docstring).
@@ -117,12 +122,17 @@ def giesekus_drag(
         kT: k_BT.
         component: "shear", "normal" or "xx" (module docstring).
         n_blocks: blocks of the time series for the error.
+        intramolecular_pressure: (..., T, 3, 3) stress of the other intramolecular
+            forces (e.g. "<species>/spring_pair_pressure"), added to bond_pressure;
+            None: the spring alone (thesis eq. 4.18).
     Returns:
         (ζ, standard error), arrays of shape (...).
     """
     if component not in GIESEKUS_COMPONENTS:
         raise ValueError(f"component = {component!r}: valid are {list(GIESEKUS_COMPONENTS)}")
     pressure = jnp.asarray(bond_pressure)
+    if intramolecular_pressure is not None:
+        pressure = pressure + jnp.asarray(intramolecular_pressure)
     conformation = jnp.asarray(bond_conformation)
     if pressure.shape != conformation.shape or pressure.shape[-2:] != (3, 3):
         raise ValueError(

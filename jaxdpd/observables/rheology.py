@@ -125,7 +125,9 @@ def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
     `shear_rheology`; with "conformation": the sheared components of each species'
     ⟨QQ⟩ (`conformation_components`) and, for dumbbells under shear, the Giesekus
     drag coefficient "<species>/drag_giesekus" (jaxdpd.observables.drag, "shear"
-    component); with "drag": the tagged-particle drag coefficient "drag/zeta".
+    component, springs alone as thesis eq. 4.18) and "<species>/drag_giesekus_ev"
+    (springs plus the bead repulsion across them); with "drag": the
+    tagged-particle drag coefficient "drag/zeta".
     Series shorter than MINIMUM_SAMPLES give no row.
     """
     rows = {}
@@ -152,10 +154,12 @@ def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
         if steady_shear and flow.shear_rate != 0 and polymer.beads == 2 and long_enough(bond):
             springs = next(s.count for s in scene.particles.species if s.name == polymer.species)
             density = springs / 2 / scene.volume
-            estimate = giesekus_drag(
-                series[bond], series[name], flow.shear_rate, density, scene.solvent.kT
-            )
-            add(f"{polymer.species}/drag_giesekus", estimate)
+            arguments = (series[bond], series[name], flow.shear_rate, density, scene.solvent.kT)
+            add(f"{polymer.species}/drag_giesekus", giesekus_drag(*arguments))
+            repulsion = f"{polymer.species}/spring_pair_pressure"
+            if repulsion in series:
+                estimate = giesekus_drag(*arguments, intramolecular_pressure=series[repulsion])
+                add(f"{polymer.species}/drag_giesekus_ev", estimate)
     if long_enough("drag/relative_velocity"):
         force = scene.body_force
         tagged = next(s.count for s in scene.particles.species if s.name == force.species)
