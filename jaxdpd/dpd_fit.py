@@ -16,8 +16,8 @@ and a parameter θ of the potential energy U,
 
     d⟨A⟩/dθ = ⟨∂A/∂θ⟩ − (⟨A ∂U/∂θ⟩ − ⟨A⟩⟨∂U/∂θ⟩)/k_BT
 
-(differentiate ⟨A⟩ = ∫ A e^{−U/k_BT} / ∫ e^{−U/k_BT}; e.g. Allen & Tildesley,
-*Computer Simulation of Liquids*, 2nd ed. (2017), §2.4 on fluctuations).  It is
+(differentiate ⟨A⟩ = ∫ A e^{−U/k_BT} / ∫ e^{−U/k_BT} under the integral: the
+derivative of the Boltzmann factor gives the covariance).  It is
 exact, needs one run at θ and the per-step ∂U/∂θ (here by forward-mode autodiff of
 the bond law), and its error bar is a block average like any other.  It is the
 equilibrium form of the likelihood-ratio estimator that jaxdpd.brownian.fit uses for

@@ -124,8 +124,8 @@ def ratio_of_means(numerator, denominator, n_blocks: int = 20, axis: int = 0):
     Returns:
       ``(ratio, sem)``: arrays of the series shape with ``axis`` removed.
 
-    Reference: delta method for a ratio estimator, e.g. Allen & Tildesley, *Computer
-    Simulation of Liquids*, 2nd ed. (2017), §8.4.
+    Reference: the delta method for a ratio of means (first-order error propagation,
+    with the covariance of numerator and denominator kept).
     """
     a = _check_series(numerator, axis, n_blocks)
     b = _check_series(denominator, axis, n_blocks)

@@ -28,6 +28,7 @@ from jaxdpd.bonds import fene, hookean
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.observables import chain_series, rheology
 from jaxdpd.observables.drag import giesekus_drag
+from jaxdpd.statistics import ratio_of_means
 from jaxdpd.topology import ChainBlock
 
 SIGMAS = 4.0
@@ -77,6 +78,19 @@ def test_material_functions_of_an_ensemble_keep_the_replica_axis():
             np.testing.assert_allclose(batch[name][0][k], single[name][0], rtol=1e-12)
             np.testing.assert_allclose(batch[name][1][k], single[name][1], rtol=1e-12)
     assert all(np.isnan(batch[name][0][0]) for name in rheology.MATERIAL_FUNCTIONS)
+
+
+def test_ratio_of_means_and_its_delta_method_error():
+    """r = ⟨a⟩/⟨b⟩ of correlated independent pairs: within 4 standard errors of
+    μa/μb, and the error equals the delta-method value √Var(a − r b)/(μb √T) within
+    4 times its relative uncertainty 1/√(2 (n_blocks − 1))."""
+    rng = np.random.default_rng(10)
+    b = 2.0 + 0.3 * rng.normal(size=SAMPLES)
+    a = 1.5 * b + 0.2 * rng.normal(size=SAMPLES) - 1.0  # μa = 2, correlated with b
+    ratio, error = ratio_of_means(a, b)
+    exact_error = np.sqrt(0.2**2 + (1.5 - 1.0) ** 2 * 0.3**2) / 2.0 / np.sqrt(SAMPLES)
+    assert abs(float(ratio) - 1.0) < SIGMAS * exact_error
+    assert abs(float(error) / exact_error - 1) < SIGMAS / np.sqrt(2 * 19)
 
 
 def test_stress_parts_add_up_and_the_bond_part_gives_the_polymer_functions():
