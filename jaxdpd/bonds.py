@@ -36,6 +36,8 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 
+from jaxdpd.pairs import wca_energy, wca_force_over_distance
+
 # 1 − Q²/Q0² is floored here when a FENE spring is at or past Q0 (the step is
 # flagged and the run stops at the end of the chunk).
 FENE_DENOMINATOR_FLOOR = 1e-6
@@ -165,25 +167,18 @@ def fene(spring_constant: float, max_extension: float, kT: float) -> BondLaw:
     )
 
 
-def _wca_parts(q_sq, wca_sigma):
-    """(inside the WCA range 2^{1/6} σ, (σ/Q)⁶ there)."""
-    inside = q_sq < 2 ** (1 / 3) * wca_sigma * wca_sigma
-    safe_sq = jnp.where(inside, q_sq, 2 ** (1 / 3) * wca_sigma * wca_sigma)
-    return inside, (wca_sigma * wca_sigma / safe_sq) ** 3
-
-
 def _fene_log_wca_stiffness(q_sq, spring_constant, max_extension, wca_epsilon, wca_sigma):
-    """FENE stiffness plus the WCA push −(dU_WCA/dQ)/Q = −24 ε (2 s¹² − s⁶)/Q²."""
-    inside, s6 = _wca_parts(q_sq, wca_sigma)
-    wca = jnp.where(inside, -24 * wca_epsilon * (2 * s6 * s6 - s6) / q_sq, 0)
-    return _fene_stiffness(q_sq, spring_constant, max_extension) + wca
+    """FENE stiffness plus the WCA force F/Q, a push: a negative tension."""
+    return _fene_stiffness(q_sq, spring_constant, max_extension) - wca_force_over_distance(
+        q_sq, wca_epsilon, wca_sigma
+    )
 
 
 def _fene_log_wca_energy(q_sq, spring_constant, max_extension, wca_epsilon, wca_sigma):
-    """FENE log energy plus 4ε[(σ/Q)¹² − (σ/Q)⁶ + ¼] inside the WCA range."""
-    inside, s6 = _wca_parts(q_sq, wca_sigma)
-    wca = jnp.where(inside, 4 * wca_epsilon * (s6 * s6 - s6 + 0.25), 0)
-    return _fene_energy(q_sq, spring_constant, max_extension) + wca
+    """FENE log energy plus the WCA energy 4ε[(σ/Q)¹² − (σ/Q)⁶ + ¼] inside 2^{1/6}σ."""
+    return _fene_energy(q_sq, spring_constant, max_extension) + wca_energy(
+        q_sq, wca_epsilon, wca_sigma
+    )
 
 
 def fene_log_wca(

@@ -28,6 +28,7 @@ from jaxdpd.bonds import fene, hookean
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.observables import chain_series, rheology
 from jaxdpd.observables.drag import giesekus_drag
+from jaxdpd.running_averages import RunningBlockAverages
 from jaxdpd.statistics import ratio_of_means
 from jaxdpd.topology import ChainBlock
 
@@ -237,7 +238,8 @@ def test_giesekus_drag_of_brownian_fene_dumbbells():
 
 def test_summary_rows_of_a_sheared_dumbbell_solution():
     """The run summary gets the material functions, the sheared ⟨QQ⟩ components, the
-    Giesekus and tagged drag coefficients, each with the module functions' values."""
+    Giesekus and tagged drag coefficients, each with the module functions' values;
+    the block means that a streamed run keeps give the same rows."""
     scene = sheared_solution_with_tracers()  # γ̇ = 0.3, 40 springs, 4 of 300 tagged, F = 1
     rng = np.random.default_rng(7)
     series = {
@@ -267,6 +269,14 @@ def test_summary_rows_of_a_sheared_dumbbell_solution():
     drift = series["drag/relative_velocity"][:, 0]
     zeta = 1.0 * 299 / (296 * np.mean(drift[drift.size % 20 :]))
     assert rows["drag/zeta"][0] == pytest.approx(zeta)
+    # A streamed run keeps only block means (jaxdpd.running_averages): the same rows.
+    averages = RunningBlockAverages(100)
+    averages.add(0, {name: values[:60] for name, values in series.items()})
+    averages.add(60, {name: values[60:] for name, values in series.items()})
+    streamed = rheology.summary_rows(scene, averages.block_means(), averages.n_blocks)
+    assert streamed.keys() == rows.keys()
+    for name, (mean, error) in rows.items():
+        assert streamed[name] == pytest.approx((mean, error), rel=1e-9), name
     # Too short a series gives no rows; a box at rest no material functions.
     assert rheology.summary_rows(scene, {k: v[:10] for k, v in series.items()}) == {}
     at_rest = scene.replace(flow=None, box={"kind": "periodic"})

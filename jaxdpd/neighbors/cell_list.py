@@ -9,7 +9,8 @@ pair is found exactly once.  The neighbour blocks are whole-grid rolls, and the
 distance tests are dense element-wise arithmetic on (slot, cell) planes: XLA's CPU
 backend runs these far faster than per-particle gathers of candidates.  Each test
 result is packed into 32-bit words, one bit per candidate slot, and the accepted pairs
-are compacted into flat (i, j) arrays by branch-free binary searches over popcounts.
+are compacted into flat (i, j) arrays with prefix sums over popcounts, one scatter
+and a cumulative maximum (O(N + capacity), no per-pair search over the rows).
 
 Axes with fewer than three cells fall back to a single cell along that axis (every
 particle is a candidate along it, measured by the minimum image in the frame, which
@@ -165,9 +166,13 @@ def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
 def _compact(accepted, pair_capacity: int):
     """Locate the set bits of `accepted` (words × rows) in row-major order.
 
-    Pair slot p is found by three binary searches: its row (over cumulative counts
-    of the rows), its word (over the row's cumulative word counts) and its bit (over
-    popcounts of bit prefixes).
+    Every (row, word) entry owns a run of output slots as long as its popcount,
+    starting at the exclusive prefix sum of the popcounts in row-major order.  Each
+    non-empty entry writes its index at its start slot, and a cumulative maximum
+    carries it over the run: slot p belongs to the last entry starting at or before
+    it.  The bit is then the rank-th set bit of that entry's word, found by a
+    five-step binary search over popcounts of bit prefixes (register arithmetic).
+    Everything is O(entries + capacity), with no search over the rows.
 
     Returns:
         row, word, bit: (pair_capacity,) int32 locations.
@@ -175,27 +180,26 @@ def _compact(accepted, pair_capacity: int):
         total: int32 number of set bits (may exceed the capacity).
     """
     words, rows = accepted.shape
-    per_word = jax.lax.population_count(accepted).astype(jnp.int32)
-    word_inclusive = jnp.cumsum(per_word, axis=0, dtype=jnp.int32)
-    per_row = word_inclusive[-1]
-    row_inclusive = jnp.cumsum(per_row, dtype=jnp.int32)
-    total = row_inclusive[-1]
+    entries = accepted.T.reshape(-1)  # row-major: entry e = row · words + word
+    counts = jax.lax.population_count(entries).astype(jnp.int32)
+    inclusive = jnp.cumsum(counts, dtype=jnp.int32)
+    starts = inclusive - counts
+    total = inclusive[-1]
+    index = jnp.arange(entries.shape[0], dtype=jnp.int32)
+    # Empty entries and runs beyond the capacity write nowhere (index dropped).
+    target = jnp.where((counts > 0) & (starts < pair_capacity), starts, pair_capacity)
+    owner = jnp.zeros(pair_capacity, jnp.int32).at[target].max(index, mode="drop")
+    owner = jax.lax.cummax(owner)
     slots = jnp.arange(pair_capacity, dtype=jnp.int32)
-    row = jnp.minimum(_lower_bound(lambda k: row_inclusive[k], rows, slots + 1), rows - 1)
-    rank = slots - (row_inclusive[row] - per_row[row])
-    flat_inclusive = word_inclusive.reshape(-1)
-    word = _lower_bound(lambda k: flat_inclusive[k * rows + row], words, rank + 1)
-    word = jnp.minimum(word, words - 1)
-    flat = word * rows + row
-    rank = rank - (flat_inclusive[flat] - per_word.reshape(-1)[flat])
-    bits = accepted.reshape(-1)[flat]
+    rank = slots - starts[owner]
+    bits = entries[owner]
 
     def set_bits_up_to(k):
         prefix = (jnp.uint32(2) << k.astype(jnp.uint32)) - jnp.uint32(1)
         return jax.lax.population_count(bits & prefix).astype(jnp.int32)
 
     bit = jnp.minimum(_lower_bound(set_bits_up_to, WORD_BITS, rank + 1), WORD_BITS - 1)
-    return row, word, bit, slots < total, total
+    return owner // words, owner % words, bit, slots < total, total
 
 
 def cell_list_search(box, n_particles: int, cutoff: float, skin: float):

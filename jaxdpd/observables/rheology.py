@@ -28,8 +28,6 @@ from jaxdpd.statistics import block_average
 
 MATERIAL_FUNCTIONS = ("viscosity", "psi1", "psi2")
 PART_PREFIX = "pressure_tensor_part/"
-# Fewer samples than this give no summary row (20 blocks of at least 2 samples).
-MINIMUM_SAMPLES = 40
 
 
 def material_function_series(pressure_tensor, shear_rate) -> dict:
@@ -121,6 +119,16 @@ def conformation_components(conformation, n_blocks: int = 20) -> dict:
 def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
     """Rows for the run summary: name → (mean, standard error) as Python floats.
 
+    Args:
+        scene: the run's scene.
+        series: name → (T, ...) series, per-step samples or the block means of a
+            streamed run (jaxdpd.running_averages.RunningBlockAverages.block_means,
+            T = n_blocks: every function here is linear in the samples or a ratio
+            of such means, so block means give the same estimates).
+        n_blocks: blocks of the time series (≥ 2).
+    Returns:
+        name → (mean, standard error).
+
     For a steady shear flow with "pressure": the material functions of
     `shear_rheology`; with "conformation": the sheared components of each species'
     ⟨QQ⟩ (`conformation_components`) and, for dumbbells under shear, the Giesekus
@@ -128,7 +136,7 @@ def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
     component, springs alone as thesis eq. 4.18) and "<species>/drag_giesekus_ev"
     (springs plus the bead repulsion across them); with "drag": the
     tagged-particle drag coefficient "drag/zeta".
-    Series shorter than MINIMUM_SAMPLES give no row.
+    Series shorter than n_blocks give no row.
     """
     rows = {}
 
@@ -137,7 +145,7 @@ def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
         rows[name] = (float(mean), float(error))
 
     def long_enough(name):
-        return name in series and np.shape(series[name])[0] >= MINIMUM_SAMPLES
+        return n_blocks >= 2 and name in series and np.shape(series[name])[0] >= n_blocks
 
     flow = scene.flow
     steady_shear = flow is not None and flow.kind == "shear" and flow.oscillation_frequency is None
@@ -155,16 +163,22 @@ def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
             springs = next(s.count for s in scene.particles.species if s.name == polymer.species)
             density = springs / 2 / scene.volume
             arguments = (series[bond], series[name], flow.shear_rate, density, scene.solvent.kT)
-            add(f"{polymer.species}/drag_giesekus", giesekus_drag(*arguments))
+            add(f"{polymer.species}/drag_giesekus", giesekus_drag(*arguments, n_blocks=n_blocks))
             repulsion = f"{polymer.species}/spring_pair_pressure"
             if repulsion in series:
-                estimate = giesekus_drag(*arguments, intramolecular_pressure=series[repulsion])
+                estimate = giesekus_drag(
+                    *arguments, n_blocks=n_blocks, intramolecular_pressure=series[repulsion]
+                )
                 add(f"{polymer.species}/drag_giesekus_ev", estimate)
     if long_enough("drag/relative_velocity"):
         force = scene.body_force
         tagged = next(s.count for s in scene.particles.species if s.name == force.species)
         estimate = tagged_drag(
-            series["drag/relative_velocity"][:, 0], force.amplitude, tagged, scene.n_particles
+            series["drag/relative_velocity"][:, 0],
+            force.amplitude,
+            tagged,
+            scene.n_particles,
+            n_blocks,
         )
         add("drag/zeta", estimate)
     return rows
