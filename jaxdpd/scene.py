@@ -60,6 +60,9 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 (with mpcd the chained species must be adjacent in particles.species)
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
+                kind = "tagged": amplitude F, species = name: f_x = F on each of the
+                k particles of that species, −k F/(N − k) on every other one (drag
+                coefficient, thesis §4.2.4)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
                 lattice_boltzmann); lambda in [0, 1] (dpd only: Lowe–Andersen and
                 lattice-Boltzmann steps have no velocity-dependent force to predict)
@@ -69,7 +72,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation", "dynamics", "profile",
-                "transverse_current"} (default temperature and pressure; no pressure with
+                "transverse_current", "drag" (needs body_force.kind = "tagged")}
+                (default temperature and pressure; no pressure with
                 lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs
                 along y); trajectory_every (0 = never); correlator_every ≥ 1 (steps
                 between samples of the "dynamics" correlators), correlator_levels ≥ 1;
@@ -127,7 +131,9 @@ OBSERVABLES = (
     "dynamics",
     "profile",
     "transverse_current",
+    "drag",
 )
+BODY_FORCE_KINDS = ("cosine", "tagged")
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
@@ -246,14 +252,17 @@ class BodyForce:
     """An external force on every particle (jaxdpd.forcing).
 
     Attributes:
-        kind: "cosine": f_x = amplitude cos(2π waves y / L_y).
-        amplitude: F, force per particle.
-        waves: n, periods across the box along y.
+        kind: "cosine": f_x = amplitude cos(2π waves y / L_y); "tagged": f_x =
+            amplitude on the particles of `species`, −amplitude k/(N − k) on the others.
+        amplitude: F, force per (tagged) particle.
+        waves: n, periods across the box along y (cosine).
+        species: the tagged species (tagged).
     """
 
     kind: str
     amplitude: float
     waves: int = 1
+    species: str | None = None
 
 
 @dataclass(frozen=True)
@@ -421,6 +430,12 @@ class Scene:
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
                 "rest; under flow, measure the chains with 'conformation'"
             )
+        body_force = _read_body_force(data.get("body_force"), solvent, particles)
+        if "drag" in output.observables and _kind(body_force) != "tagged":
+            raise ValueError(
+                "output.observables: 'drag' measures the drift of tagged particles; add "
+                "[body_force] kind = 'tagged' with their species, or remove it"
+            )
         for name in POLYMER_OBSERVABLES:
             if name in output.observables and not polymers:
                 raise ValueError(
@@ -438,7 +453,7 @@ class Scene:
             integrator=integrator,
             polymers=polymers,
             flow=flow,
-            body_force=_read_body_force(data.get("body_force"), solvent),
+            body_force=body_force,
             neighbors=neighbors,
             run=run,
             output=output,
@@ -503,6 +518,10 @@ class Scene:
             del data["polymers"]
         if self.body_force is None:
             del data["body_force"]
+        elif self.body_force.kind == "cosine":
+            del data["body_force"]["species"]
+        else:
+            del data["body_force"]["waves"]
         if self.flow is None:
             del data["flow"]
         elif self.flow.oscillation_frequency is None:
@@ -750,8 +769,8 @@ def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
         )
 
 
-def _kind(flow: Flow | None) -> str | None:
-    return None if flow is None else flow.kind
+def _kind(section: Flow | BodyForce | None) -> str | None:
+    return None if section is None else section.kind
 
 
 def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
@@ -776,20 +795,36 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     return Flow(kind, shear_rate, frequency)
 
 
-def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
+def _read_body_force(section, solvent: Solvent, particles: Particles) -> BodyForce | None:
     if section is None:
         return None
-    check_keys(section, ("kind", "amplitude", "waves"), "body_force")
+    check_keys(section, ("kind", "amplitude", "waves", "species"), "body_force")
     if solvent.method != "dpd":
         raise ValueError(
             f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
             f"not {solvent.method!r}"
         )
-    return BodyForce(
-        kind=read_choice(section, "kind", "body_force", ("cosine",)),
-        amplitude=read_number(section, "amplitude", "body_force"),
-        waves=read_number(section, "waves", "body_force", 1, minimum=1, integer=True),
-    )
+    kind = read_choice(section, "kind", "body_force", BODY_FORCE_KINDS)
+    amplitude = read_number(section, "amplitude", "body_force")
+    if kind == "cosine":
+        if "species" in section:
+            raise ValueError("body_force.species: only used with body_force.kind = 'tagged'")
+        waves = read_number(section, "waves", "body_force", 1, minimum=1, integer=True)
+        return BodyForce(kind, amplitude, waves)
+    if "waves" in section:
+        raise ValueError("body_force.waves: only used with body_force.kind = 'cosine'")
+    species = read_string(section, "species", "body_force")
+    counts = {s.name: s.count for s in particles.species}
+    if species not in counts:
+        raise ValueError(
+            f"body_force.species = {species!r}: not a particle species; species are {list(counts)}"
+        )
+    if not 1 <= counts[species] < particles.count:
+        raise ValueError(
+            f"body_force.species = {species!r} has {counts[species]} particles: the tagged "
+            "force needs at least one tagged and one untagged particle"
+        )
+    return BodyForce(kind, amplitude, species=species)
 
 
 def _read_neighbors(section) -> Neighbors:

@@ -9,6 +9,9 @@ solvent.method = "lattice_boltzmann" the particles are beads coupled by friction
 a lattice-Boltzmann fluid kept in SimState.solvent_state (jaxdpd.lattice_boltzmann);
 with its k_BT = 0 no noise is traced.  With an MPCD solvent only the monomers feel
 forces: the force kernel and its neighbour search cover their index range alone.
+
+The bond constants and the body-force amplitude are read from
+`SimState.parameters` (jaxdpd.parameters): one compiled step serves every value.
 """
 
 import dataclasses
@@ -22,7 +25,7 @@ import jax.numpy as jnp
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import make_box
-from jaxdpd.forcing import cosine_body_force
+from jaxdpd.forcing import cosine_body_force, tagged_body_force
 from jaxdpd.integrators import (
     collide_and_stream,
     modified_velocity_verlet,
@@ -37,12 +40,14 @@ from jaxdpd.observables.chain_correlators import (
     sample_every,
     update_chain_correlators,
 )
-from jaxdpd.observables.chain_series import conformation_samples
+from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
+from jaxdpd.observables.drag import relative_velocity_samples
 from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
+from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
@@ -121,6 +126,28 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
+def species_range(scene: Scene, name: str) -> tuple[int, int]:
+    """(first index, count) of the particles of species `name` (stored species
+    after species)."""
+    first = 0
+    for species in scene.particles.species:
+        if species.name == name:
+            return first, species.count
+        first += species.count
+    raise ValueError(f"species {name!r}: not in the scene's species {scene.species_names}")
+
+
+def body_force_law(scene: Scene, dtype):
+    """`force(positions, amplitude)` of the scene's [body_force], or None."""
+    section = scene.body_force
+    if section is None:
+        return None
+    if section.kind == "cosine":
+        return cosine_body_force(section.waves, scene.box.lengths[1], dtype)
+    first, count = species_range(scene, section.species)
+    return tagged_body_force(first, count, scene.n_particles, dtype)
+
+
 def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, body_force):
     """The composed force kernel: the pair terms, the body force and the springs of
     every chain block.
@@ -172,11 +199,12 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
         bound_box = box.bind(state.box_state)
         vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
         if body_force is not None:
-            vectors = vectors + body_force(positions)
+            vectors = vectors + body_force(positions, state.parameters["body_force"]["amplitude"])
         bits = jnp.asarray(0, jnp.int32)
         for block in blocks:
+            law = block.law.with_parameters(state.parameters["bond"][block.species])
             bonded = chain_bond_forces(
-                bound_box, block.take(positions), block.take(state.image), block.law, with_virial
+                bound_box, block.take(positions), block.take(state.image), law, with_virial
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
             if with_virial:
@@ -239,11 +267,7 @@ def build(scene: Scene) -> Simulation:
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
     bath_cutoff = thermalization_cutoff(scene)
-    body_force = None
-    if scene.body_force is not None:
-        body_force = cosine_body_force(
-            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
-        )
+    body_force = body_force_law(scene, dtype)
     search = None
     if terms or bath_cutoff is not None:
         search = neighbor_search(
@@ -318,13 +342,31 @@ def build(scene: Scene) -> Simulation:
         )
 
     observables = scene.output.observables
+    spring_pair_strengths = []  # (block, a of its species with itself)
+    if {"conformation", "pressure"} <= set(observables) and scene.pair is not None:
+        names = scene.species_names
+        spring_pair_strengths = [
+            (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
+            for block in blocks
+        ]
+    tagged_range = None
+    if "drag" in observables:
+        tagged_range = species_range(scene, scene.body_force.species)
 
     def step_fn(state):
         state = advance(state)
         samples = step_samples(observables, state, masses)
         bound_box = box.bind(state.box_state)
         if "conformation" in observables:
-            samples.update(conformation_samples(bound_box, state.positions, blocks))
+            samples.update(
+                conformation_samples(bound_box, state.positions, blocks, state.parameters)
+            )
+            for block, strength in spring_pair_strengths:
+                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
+                    bound_box, state.positions, block, strength, scene.cutoff, scene.volume
+                )
+        if "drag" in observables:
+            samples.update(relative_velocity_samples(state.velocities, tagged_range))
         if "profile" in observables:
             samples.update(
                 profile_samples(
@@ -377,6 +419,7 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
             box_state=box_state,
+            parameters=scene_parameters(scene, blocks, dtype),
         )
         if bath_cutoff is not None:
             state = state.set(solvent_state=empty_record(dtype))

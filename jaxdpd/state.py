@@ -31,6 +31,9 @@ class SimState:
             shear rate); None for a box at rest.
         observers: accumulators of observables measured on device while the run goes
             (e.g. multiple-tau correlators), a dict pytree; None when none is asked.
+        parameters: traced model parameters read by the force kernels (bond
+            constants, body-force amplitude; see jaxdpd.parameters), a dict pytree;
+            change them without recompiling, or give each replica its own.
     """
 
     positions: jnp.ndarray
@@ -47,3 +50,4 @@ class SimState:
     solvent_state: object = None
     box_state: object = None
     observers: object = None
+    parameters: object = None
