@@ -30,6 +30,8 @@ class SimState:
             shear rate); None for a box at rest.
         observers: accumulators of observables measured on device while the run goes
             (e.g. multiple-tau correlators), a dict pytree; None when none is asked.
+        spring_pairs: the spring-pair list (jaxdpd.neighbors.spring_pairs) of scenes
+            with spring–spring repulsion or the "spring_pairs" observable; else None.
     """
 
     positions: jnp.ndarray
@@ -46,3 +48,4 @@ class SimState:
     solvent_state: object = None
     box_state: object = None
     observers: object = None
+    spring_pairs: object = None
