@@ -1,11 +1,14 @@
 """`build(scene)`: compose a pure step function from exactly the terms a scene names.
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
-conservative force, with γ = 0 no dissipative or random force, without "pressure"
-no virial, without [[polymers]] no bond kernel, without [body_force] no external
-force, with no pair term at all no
-neighbour search, in a box at rest (no [flow]) no flow arithmetic, and without
-[spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
+Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
+kernel, without [body_force] no external force, with no pair term or thermostat at
+all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
+without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+With solvent.method = "lattice_boltzmann" the particles are beads coupled by
+friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
+(jaxdpd.lattice_boltzmann); with its k_BT = 0 no noise is traced.
 """
 
 import functools
@@ -20,7 +23,13 @@ from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import make_box
 from jaxdpd.forcing import cosine_body_force
-from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
+from jaxdpd.integrators import (
+    collide_and_stream,
+    modified_velocity_verlet,
+    thermalized_velocity_verlet,
+)
+from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
+from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.neighbors.spring_pairs import (
     SpringPairSearch,
@@ -37,7 +46,7 @@ from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.spring_pairs import spring_pair_samples
 from jaxdpd.observables.thermo import step_samples
-from jaxdpd.pairs import soft_repulsion_term
+from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
@@ -51,6 +60,7 @@ from jaxdpd.segments import (
 from jaxdpd.state import SimState
 from jaxdpd.thermostats.dpd import groot_warren_term
 from jaxdpd.thermostats.hoogerbrugge_koelman import hoogerbrugge_koelman_term
+from jaxdpd.thermostats.lowe_andersen import empty_record, lowe_andersen_thermostat
 from jaxdpd.topology import chain_blocks
 
 
@@ -111,7 +121,9 @@ def pair_terms(scene: Scene, dtype) -> list:
     """The pair laws the scene names, in the order they are summed."""
     terms = []
     solvent = scene.solvent
-    if scene.pair is not None:
+    if scene.pair is not None and scene.pair.kind == "wca":
+        terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
+    elif scene.pair is not None:
         terms.append(soft_repulsion_term(scene.pair.a, dtype))
     if solvent.method == "dpd" and solvent.gamma > 0:
         terms.append(
@@ -145,6 +157,16 @@ def particle_masses(scene: Scene, dtype):
     )
 
 
+def thermalization_cutoff(scene: Scene) -> float | None:
+    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
+    solvent = scene.solvent
+    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
+        return None
+    if solvent.thermalization_cutoff is None:
+        return scene.cutoff
+    return solvent.thermalization_cutoff
+
+
 @functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
@@ -158,17 +180,18 @@ def build(scene: Scene) -> Simulation:
     blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
+    bath_cutoff = thermalization_cutoff(scene)
     body_force = None
     if scene.body_force is not None:
         body_force = cosine_body_force(
             scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
         )
     search = None
-    if terms:
+    if terms or bath_cutoff is not None:
         search = neighbor_search(
             box,
             n,
-            scene.cutoff,
+            max(scene.cutoff, bath_cutoff or 0.0),
             scene.neighbors.skin,
             scene.neighbors.method,
             scene.neighbors.format,
@@ -204,9 +227,11 @@ def build(scene: Scene) -> Simulation:
 
     def pair_interactions(bound_box, positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
-        if not terms:
+        if search is None:
             return jnp.zeros_like(positions), {}, state.pair_list
         pair_list = search.update(positions, state.pair_list, state.box_state)
+        if not terms:  # the list serves the thermostat alone
+            return jnp.zeros_like(positions), {}, pair_list
         geometry = pair_geometry(bound_box, positions, pair_list, scene.cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
@@ -253,8 +278,51 @@ def build(scene: Scene) -> Simulation:
             bits = bits | spring_bits
         return vectors, virial, state, bits
 
+    fluid = None
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+    elif bath_cutoff is not None:
+        lowe_andersen = lowe_andersen_thermostat(
+            n,
+            min(1.0, scene.solvent.collision_frequency * scene.integrator.dt),
+            scene.solvent.kT,
+            bath_cutoff,
+            scene.integrator.dt,
+            dtype,
+            search.half,
+            masses,
+            with_virial,
+        )
+
+        def thermalize(state, velocities):
+            """Thermalise at the state's positions and box; noise keyed by its step."""
+            key = noise.step_key(state.seed, state.step)
+            bound_box = box.bind(state.box_state)
+            return lowe_andersen(bound_box, state.positions, velocities, state.pair_list, key)
+
+        advance = thermalized_velocity_verlet(
+            box,
+            scene.integrator.dt,
+            interactions,
+            thermalize,
+            scene.solvent.kT,
+            dtype,
+            masses,
+            with_virial,
+        )
+    elif scene.solvent.method == "lattice_boltzmann":
+        fluid = fluid_parameters(scene)
+        advance = coupled_step(
+            box,
+            scene.integrator.dt,
+            md_steps_per_lattice_step(scene),
+            interactions,
+            fluid,
+            scene.solvent.friction,
+            dtype,
+            masses,
+            scene.solvent.noise,
+        )
     else:
         advance = modified_velocity_verlet(
             box,
@@ -337,11 +405,18 @@ def build(scene: Scene) -> Simulation:
         )
         # Zeros of the virial parts a step records, so the state keeps one structure.
         parts = jax.eval_shape(interactions, positions, velocities, state)[1]
+        if bath_cutoff is not None and with_virial:
+            parts = {**parts, "impulse": jax.ShapeDtypeStruct((3, 3), dtype)}
         state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
         state = init_observers(state)
-        if scene.solvent.method == "dpd":
+        if scene.solvent.method != "hoogerbrugge_koelman":
             forces, virial, state, bits = jax.jit(interactions)(positions, velocities, state)
+            virial = {**state.virial, **virial}  # keeps the thermostat's "impulse" zeros
             state = state.set(forces=forces, virial=virial, flags=bits)
+        if bath_cutoff is not None:
+            state = state.set(solvent_state=empty_record(dtype))
+        if fluid is not None:
+            state = state.set(solvent_state=initial_fluid_state(fluid, scene.seed, dtype))
         return state
 
     def allocate_spring_pairs(positions, box_state, minimum=None):
