@@ -1,0 +1,291 @@
+"""Spring–spring closest approach, repulsion forces and the spring-pair list
+(jaxdpd.segments, jaxdpd.neighbors.spring_pairs; thesis §5.2)."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdpd.boxes import make_box
+from jaxdpd.neighbors.spring_pairs import SpringPairSearch
+from jaxdpd.scene import Flow
+from jaxdpd.segments import (
+    SpringTable,
+    closest_approach,
+    pair_energy,
+    pair_magnitudes,
+    segment_forces,
+    segment_virial,
+    spring_pair_geometry,
+    spring_repulsion_law,
+    spring_vectors,
+)
+
+LAWS = {
+    "exponential": spring_repulsion_law(
+        {"law": "exponential", "A": 100.0, "alpha": 10.0, "range": 1 / 3, "distance_floor": 1e-3}
+    ),
+    "linear": spring_repulsion_law(
+        {"law": "linear", "a": 25.0, "range": 1 / 3, "distance_floor": 1e-3}
+    ),
+}
+
+
+def brute_force_distance(separation, spring_1, spring_2, iterations: int = 70):
+    """Reference: min over (t1, t2) ∈ [−½, ½]² of |D(t1, t2)| by nested golden-section
+    searches (host-side float64).
+
+    |D| is the norm of an affine function of (t1, t2), hence jointly convex, so
+    g(t1) = min_t2 |D| is convex too and both searches converge to the global minimum.
+    After 70 golden-ratio steps each bracket is 0.618^70 ≈ 2e-15 wide, so the distance
+    found exceeds the true one by at most (|R1| + |R2|) × 2e-15 (|D| is Lipschitz in
+    t with constant |R|); the bracket ends ±½ are tried too (a minimum on an edge).
+    """
+    d, r1, r2 = (np.asarray(v, np.float64) for v in (separation, spring_1, spring_2))
+    ratio = (math.sqrt(5) - 1) / 2
+
+    def golden(function):
+        lo, hi = -0.5, 0.5
+        for _ in range(iterations):
+            m1, m2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+            if function(m1) < function(m2):
+                hi = m2
+            else:
+                lo = m1
+        return min(function(t) for t in (-0.5, 0.5 * (lo + hi), 0.5))
+
+    def over_t2(t1):
+        point = d + t1 * r1
+        return golden(lambda t2: math.sqrt(float(np.sum((point - t2 * r2) ** 2))))
+
+    return golden(over_t2)
+
+
+def special_pairs(rng):
+    """(d, R1, R2) triples of the hard cases: crossing, parallel, antiparallel,
+    nearly parallel (fig. 5-2), collinear end to end, T-shaped, zero length."""
+    x, y, z = np.eye(3)
+    unit = rng.normal(size=3)
+    unit /= np.linalg.norm(unit)
+    tilt = rng.normal(size=3) * 1e-7
+    return [
+        (0.0 * x, x, y),  # crossing at the midpoints, D = 0
+        (0.2 * x + 0.1 * y, x, 0.7 * y),  # crossing off-centre, D = 0
+        (0.3 * z, x, y),  # skew, perpendicular
+        (0.2 * y, x, x),  # parallel, overlapping projections
+        (0.2 * y + 0.9 * x, x, x),  # parallel, offset: end of one inside the other
+        (0.2 * y + 1.7 * x, x, -x),  # antiparallel, projections disjoint
+        (0.2 * y + 0.8 * x, x, x + tilt),  # nearly parallel (fig. 5-2)
+        (0.05 * y + 0.95 * unit, unit, unit + tilt),  # nearly parallel, ends overlap
+        (1.5 * x, x, 2 * x),  # collinear, end to end (touching: D = 0)
+        (1.6 * x, x, 2 * x),  # collinear, a gap of 0.1
+        (0.5 * x + 0.3 * y, x, y),  # T: an end of spring 1 against the inside of 2
+        (0.3 * y + 0.1 * z, 0 * x, x),  # spring 1 of zero length (a point)
+        (0.3 * y, 0 * x, 0 * x),  # both of zero length
+    ]
+
+
+def test_closest_approach_equals_brute_force_minimum():
+    """|D| at the returned (t1, t2) equals the global minimum over the square from a
+    derivative-free brute-force search (tolerance: the search's 2e-15 |R| bracket plus
+    float64 rounding of |D| ≈ 1e-15 |d|, so 1e-12 absolute for |d|, |R| ≲ 3); D is
+    d + t1 R1 − t2 R2 with t in [−½, ½]; for skew springs (unique minimiser) the t's
+    agree with the brute force as well (checked by recomputing |D| at them)."""
+    rng = np.random.default_rng(10)
+    cases = special_pairs(rng)
+    for _ in range(40):
+        scale = rng.uniform(0.1, 1.5)
+        cases.append(tuple(rng.normal(size=(3, 3)) * scale))
+    d, r1, r2 = (np.stack(v) for v in zip(*cases, strict=True))
+    approach = closest_approach(jnp.asarray(d), jnp.asarray(r1), jnp.asarray(r2))
+    t1, t2 = np.asarray(approach.t1), np.asarray(approach.t2)
+    vector = np.asarray(approach.vector)
+    assert np.all(np.abs(t1) <= 0.5) and np.all(np.abs(t2) <= 0.5)
+    np.testing.assert_allclose(vector, d + t1[:, None] * r1 - t2[:, None] * r2, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(approach.distance), np.linalg.norm(vector, axis=1))
+    reference = np.asarray([brute_force_distance(*case) for case in cases])
+    np.testing.assert_allclose(np.asarray(approach.distance), reference, rtol=0, atol=1e-12)
+    # Known exact values of some special cases.
+    np.testing.assert_allclose(
+        np.asarray(approach.distance)[[0, 1, 2, 3, 8, 9]], [0, 0, 0.3, 0.2, 0, 0.1], atol=1e-14
+    )
+
+
+def random_chains(rng, n_chains: int, beads: int, bond: float, origin_spread: float):
+    """Random-walk chains (bond length `bond`), starting within a cube."""
+    starts = rng.uniform(0, origin_spread, size=(n_chains, 1, 3))
+    steps = rng.normal(size=(n_chains, beads - 1, 3))
+    steps *= bond / np.linalg.norm(steps, axis=-1, keepdims=True)
+    walk = np.concatenate([np.zeros((n_chains, 1, 3)), np.cumsum(steps, axis=1)], axis=1)
+    return (starts + walk).reshape(-1, 3)
+
+
+def all_spring_pairs(table: SpringTable):
+    i, j = np.triu_indices(table.count, k=1)
+    return jnp.asarray(i, jnp.int32), jnp.asarray(j, jnp.int32)
+
+
+def dense_chains(rng, box_lengths):
+    """Four 6-bead chains packed around the box centre, wrapped into the box: springs
+    near each other, many within the repulsion range, some across the boundary."""
+    centre = np.asarray(box_lengths) / 2 - 1.0
+    positions = random_chains(rng, 4, 6, 0.8, 2.0) + centre
+    # Shift so that one chain straddles the x and z faces.
+    positions[:6] += np.asarray(box_lengths) / 2 * (1, 0, 1)
+    return positions % np.asarray(box_lengths)
+
+
+def energy_and_forces(box, box_state, positions, law, table):
+    i, j = all_spring_pairs(table)
+
+    def geometry_at(x):
+        bound_box = box.bind(box_state)
+        springs, midpoints = spring_vectors(bound_box, x, table)
+        return spring_pair_geometry(bound_box, springs, midpoints, table, i, j, law.reach)
+
+    def energy(x):
+        return pair_energy(geometry_at(x), law)
+
+    geometry = geometry_at(positions)
+    magnitude = pair_magnitudes(geometry, law)
+    forces = segment_forces(geometry, magnitude, positions.shape[0])
+    return energy, geometry, magnitude, forces
+
+
+BOXES = {
+    "periodic": (make_box("periodic", (6.0, 6.0, 6.0)), None),
+    "lees_edwards": (
+        make_box("lees_edwards", (6.0, 6.0, 6.0), Flow(kind="shear", shear_rate=0.3)),
+        "offset",
+    ),
+}
+
+
+def bound(box_kind):
+    box, offset = BOXES[box_kind]
+    box_state = box.initial_state(jnp.float64)
+    if offset is not None:
+        box_state = box_state.__class__(
+            offset=jnp.asarray(1.37), shear_rate=box_state.shear_rate, time=box_state.time
+        )
+    return box, box_state
+
+
+@pytest.mark.parametrize("law_name", sorted(LAWS))
+@pytest.mark.parametrize("box_kind", sorted(BOXES))
+def test_forces_are_minus_the_energy_gradient(law_name, box_kind):
+    """F_i = −∂U/∂r_i with U = Σ_pairs U(D_pair) (Danskin: the gradient at fixed
+    closest points), checked against JAX autodiff of the energy through the
+    closest-approach minimisation, the minimum image and the box (periodic, and
+    Lees–Edwards at a nonzero offset); float64, so 1e-9 relative."""
+    rng = np.random.default_rng(3)
+    box, box_state = bound(box_kind)
+    table = SpringTable(np.asarray([c * 6 + k for c in range(4) for k in range(5)], np.int32))
+    positions = jnp.asarray(dense_chains(rng, box.lengths))
+    law = LAWS[law_name]
+    energy, geometry, magnitude, forces = energy_and_forces(box, box_state, positions, law, table)
+    interacting = int(np.sum(np.asarray(magnitude) > 0))
+    assert interacting >= 3, "the configuration should hold interacting spring pairs"
+    gradient = jax.grad(energy)(positions)
+    scale = float(np.max(np.abs(np.asarray(forces))))
+    np.testing.assert_allclose(np.asarray(forces), -np.asarray(gradient), atol=1e-9 * scale)
+
+
+def test_four_bead_forces_conserve_momentum_and_angular_momentum():
+    """Σ F = 0 and Σ r × F = 0 over the four beads of every pair, and the pair
+    virial Σ r ⊗ F equals segment_virial's D ⊗ F (thesis §5.2: the force at the closest
+    points shared with lever weights ½ ∓ t).  Chains in the middle of a large box (no
+    boundary crossings, so r are the true positions); float64 rounding: 1e-12 × the
+    largest force × position."""
+    rng = np.random.default_rng(5)
+    box = make_box("periodic", (30.0, 30.0, 30.0))
+    table = SpringTable(np.asarray([c * 6 + k for c in range(4) for k in range(5)], np.int32))
+    positions = random_chains(rng, 4, 6, 0.8, 1.5) + 14.0
+    law = LAWS["exponential"]
+    _, geometry, magnitude, forces = energy_and_forces(
+        box, None, jnp.asarray(positions), law, table
+    )
+    forces = np.asarray(forces)
+    assert np.sum(np.asarray(magnitude) > 0) >= 3
+    scale = np.max(np.abs(forces)) * np.max(np.abs(positions))
+    np.testing.assert_allclose(forces.sum(axis=0), 0, atol=1e-12 * scale)
+    np.testing.assert_allclose(np.cross(positions, forces).sum(axis=0), 0, atol=1e-12 * scale)
+    virial = np.einsum("ia,ib->ab", positions, forces)
+    np.testing.assert_allclose(
+        np.asarray(segment_virial(geometry, magnitude)), virial, atol=1e-12 * scale
+    )
+
+
+@pytest.mark.parametrize("law_name", sorted(LAWS))
+def test_laws_force_is_minus_energy_derivative_and_floored(law_name):
+    """f(D) = −dU/dD (autodiff, 1e-10 relative) on (0, D_c) across the floor; U = 0
+    and f = 0 at and beyond D_c; below the floor D_min = 0.001 the force is f(D_min)
+    (thesis §5.2.2); at contact the exponential law gives A α e^{−α D_min} (eq. 5.6)
+    and the linear law 3a (1 − D_min/D_c) (eq. 5.5)."""
+    law = LAWS[law_name]
+    distances = jnp.linspace(1e-4, 0.5, 997)
+    forces = law.force(distances)
+    derivative = jax.vmap(jax.grad(lambda d: law.energy(d)))(distances)
+    np.testing.assert_allclose(np.asarray(forces), -np.asarray(derivative), rtol=1e-10, atol=1e-10)
+    beyond = np.asarray(distances) >= law.reach
+    assert np.all(np.asarray(forces)[beyond] == 0) and np.all(
+        np.asarray(law.energy(distances))[beyond] == 0
+    )
+    np.testing.assert_allclose(float(law.energy(law.reach * (1 - 1e-12))), 0, atol=1e-9)
+    contact = float(law.force(jnp.asarray(0.0)))
+    expected = 100 * 10 * math.exp(-10 * 1e-3) if law_name == "exponential" else 3 * 25 * (1 - 3e-3)
+    assert contact == pytest.approx(expected, rel=1e-12)
+    assert float(law.force(jnp.asarray(5e-4))) == pytest.approx(contact, rel=1e-12)
+
+
+def test_springs_sharing_a_bead_are_excluded_but_chain_ends_are_not():
+    """Adjacent springs of one chain (first beads k, k+1) never interact; the last
+    spring of a chain and the first of the next (first beads differing by 2) do."""
+    table = SpringTable(np.asarray([0, 1, 3], np.int32))  # chain 0..2, chain 3..4
+    positions = jnp.asarray(
+        [[1.0, 1.0, 1.0], [1.5, 1.0, 1.0], [1.5, 1.5, 1.0], [1.5, 1.0, 1.05], [1.5, 1.5, 1.05]]
+    )
+    box = make_box("periodic", (6.0, 6.0, 6.0))
+    i, j = jnp.asarray([0, 0, 1]), jnp.asarray([1, 2, 2])
+    springs, midpoints = spring_vectors(box, positions, table)
+    geometry = spring_pair_geometry(box, springs, midpoints, table, i, j, 1 / 3)
+    # (0, 1) share bead 1: excluded; (0, 2) 0.05 apart; (1, 2) share no bead (beads
+    # 1–2 and 3–4) and lie 0.05 apart: active.
+    assert np.asarray(geometry.active).tolist() == [False, True, True]
+
+
+@pytest.mark.parametrize("box_kind", sorted(BOXES))
+def test_spring_pair_list_holds_every_pair_within_reach(box_kind):
+    """The list built from midpoints within ℓ_L + D_c (+ skin), screened by the centre
+    distance (fig. 5-3), marks active exactly the pairs whose exact closest approach
+    (all S(S−1)/2 pairs, no bead shared) is below the reach, in a periodic and a
+    Lees–Edwards box."""
+    rng = np.random.default_rng(11)
+    box, box_state = bound(box_kind)
+    beads = 8
+    positions = random_chains(rng, 12, beads, 0.7, 6.0) % 6.0
+    table = SpringTable(
+        np.asarray([c * beads + k for c in range(12) for k in range(beads - 1)], np.int32)
+    )
+    reach = 0.5
+    search = SpringPairSearch(box, table, reach, 0.3, 0.75)
+    spring_pairs = search.allocate(jnp.asarray(positions), box_state)
+    spring_pairs, geometry = search.refresh(jnp.asarray(positions), spring_pairs, box_state)
+    listed = np.asarray(geometry.active) & (np.asarray(geometry.approach.distance) < reach)
+    found = {
+        (min(a, b), max(a, b))
+        for a, b, keep in zip(
+            np.asarray(spring_pairs.pairs.i), np.asarray(spring_pairs.pairs.j), listed, strict=True
+        )
+        if keep
+    }
+    i, j = all_spring_pairs(table)
+    bound_box = box.bind(box_state)
+    springs, midpoints = spring_vectors(bound_box, jnp.asarray(positions), table)
+    every = spring_pair_geometry(bound_box, springs, midpoints, table, i, j, reach)
+    near = np.asarray(every.active) & (np.asarray(every.approach.distance) < reach)
+    expected = set(zip(np.asarray(i)[near].tolist(), np.asarray(j)[near].tolist(), strict=True))
+    assert len(expected) > 20
+    assert found == expected
