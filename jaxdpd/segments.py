@@ -55,12 +55,13 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax_md import dataclasses as jmd_dataclasses
 
 SPRING_REPULSION_LAWS = ("exponential", "linear")
 
 
 # -- closest approach ------------------------------------------------------------------
-@dataclass(frozen=True)
+@jmd_dataclasses.dataclass
 class SegmentApproach:
     """Closest approach of pairs of segments (traced arrays, batch shape (...)).
 
@@ -136,46 +137,6 @@ def closest_approach(separation, spring_1, spring_2) -> SegmentApproach:
     positive = distance_sq > 0
     distance = jnp.where(positive, jnp.sqrt(jnp.where(positive, distance_sq, 1)), 0)
     return SegmentApproach(vector, distance, pick(t1), pick(t2))
-
-
-def brute_force_distance(separation, spring_1, spring_2, iterations: int = 90):
-    """Reference: min over (t1, t2) ∈ [−½, ½]² of |D(t1, t2)| by nested golden-section
-    searches (host-side NumPy, one pair; for tests).
-
-    |D| is the norm of an affine function of (t1, t2), hence jointly convex, so
-    g(t1) = min_t2 |D| is convex as well and both searches converge to the global
-    minimum; after `iterations` golden-ratio steps each bracket is 0.618^iterations
-    wide (1e-19 for 90), below float64 resolution.
-
-    Args:
-        separation, spring_1, spring_2: (3,) d, R1, R2 as for `closest_approach`.
-        iterations: golden-section steps of each search.
-    Returns:
-        (distance, t1, t2) floats.
-    """
-    d, r1, r2 = (np.asarray(v, np.float64) for v in (separation, spring_1, spring_2))
-    ratio = (math.sqrt(5) - 1) / 2
-
-    def golden(function):
-        lo, hi = -0.5, 0.5
-        for _ in range(iterations):
-            m1, m2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-            if function(m1)[0] < function(m2)[0]:
-                hi = m2
-            else:
-                lo = m1
-        # The ends are candidates too (a minimum on the boundary).
-        return min((function(t) for t in (-0.5, 0.5 * (lo + hi), 0.5)), key=lambda v: v[0])
-
-    def over_t2(t1):
-        def distance(t2):
-            return (float(np.linalg.norm(d + t1 * r1 - t2 * r2)), t2)
-
-        value, t2 = golden(distance)
-        return value, (t1, t2)
-
-    value, (t1, t2) = golden(over_t2)
-    return value, t1, t2
 
 
 # -- repulsion laws --------------------------------------------------------------------
@@ -340,7 +301,7 @@ def spring_vectors(bound_box, positions, table: SpringTable):
     return springs, midpoints
 
 
-@dataclass(frozen=True)
+@jmd_dataclasses.dataclass
 class SpringPairGeometry:
     """The closest approaches of listed spring pairs (traced, shape (P,) each).
 

@@ -82,10 +82,10 @@ def test_nothing_of_springs_is_built_unless_asked():
 
 def crossing_scene(repulsion):
     """A θ-solvent solution of 20-bead FENE chains (H = 3, Q0 = 3, b = 27) at
-    c/c* ≈ 2 (see `overlap_ratio`), DPD at ρ = 3, a = 25, in a 6.5³ box."""
+    c/c* ≈ 2 (see `overlap_ratio`), DPD at ρ = 3, a = 25, in a 7³ box."""
     data = scene_dict(
-        box={"lengths": [6.5, 6.5, 6.5]},
-        particles={"species": [{"name": "P", "count": 560}, {"name": "S", "count": 264}]},
+        box={"lengths": [7.0, 7.0, 7.0]},
+        particles={"species": [{"name": "P", "count": 700}, {"name": "S", "count": 329}]},
         polymers=[
             {
                 "species": "P",
@@ -94,11 +94,11 @@ def crossing_scene(repulsion):
             }
         ],
         spring_repulsion=repulsion,
-        neighbors={"spring_skin": 0.3},
+        neighbors={"spring_skin": 0.2},
         output={"observables": ["temperature", "pressure", "spring_pairs"]},
         integrator={"dt": 0.005},
     )
-    data["particles"] = {"count": 824, "species": data["particles"]["species"]}
+    data["particles"] = {"count": 1029, "species": data["particles"]["species"]}
     return Scene.from_dict(data)
 
 
