@@ -10,6 +10,7 @@ import pytest
 
 from jaxdpd.boxes import make_box
 from jaxdpd.neighbors.spring_pairs import SpringPairSearch
+from jaxdpd.observables.spring_pairs import spring_pair_distribution, spring_pair_samples
 from jaxdpd.scene import Flow
 from jaxdpd.segments import (
     SpringTable,
@@ -298,3 +299,53 @@ def test_spring_pair_list_holds_every_pair_within_reach(box_kind):
     expected = set(zip(np.asarray(i)[near].tolist(), np.asarray(j)[near].tolist(), strict=True))
     assert len(expected) > 20
     assert found == expected
+
+
+def onsager_excluded_volume(distance, length):
+    """Volume of relative positions (isotropic orientations) in which two segments of
+    length ℓ come closer than D: the excluded volume of spherocylinders of diameter D,
+    (4π/3) D³ + 2π ℓ D² + (π/2) ℓ² D (Onsager, Ann. N.Y. Acad. Sci. 51, 627 (1949),
+    with ⟨|sin γ|⟩ = π/4)."""
+    return (
+        4 * math.pi / 3 * distance**3
+        + 2 * math.pi * length * distance**2
+        + (math.pi / 2 * length**2 * distance)
+    )
+
+
+def test_spring_pair_histogram_of_random_rods_follows_onsager_excluded_volume():
+    """S unit springs (dimers) placed and oriented uniformly at random: the expected
+    number of pairs closer than D is S(S − 1)/2 · V_ex(D)/V (Onsager's excluded
+    volume); the histogram of the "spring_pairs" observable, accumulated over the
+    spring-pair list, must match it cumulatively at every bin edge, and
+    `spring_pair_distribution` must integrate to 2 × pairs / S.  Tolerance: the
+    counts are sums of nearly independent rare pair events (Poisson, variance ≈
+    mean), so 4 standard deviations of the count at each edge."""
+    rng = np.random.default_rng(21)
+    n_springs, length, edge, reach, bins = 1500, 1.0, 9.0, 0.5, 10
+    box = make_box("periodic", (edge, edge, edge))
+    first = rng.uniform(0, edge, size=(n_springs, 3))
+    direction = rng.normal(size=(n_springs, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    positions = np.stack([first, first + length * direction], axis=1).reshape(-1, 3) % edge
+    positions = jnp.asarray(positions)
+    table = SpringTable(np.arange(0, 2 * n_springs, 2, dtype=np.int32))
+    search = SpringPairSearch(box, table, reach, 0.0, length)
+    spring_pairs = search.allocate(positions)
+
+    @jax.jit
+    def histogram(x, spring_pairs):
+        _, geometry = search.refresh(x, spring_pairs)
+        samples = spring_pair_samples(geometry, geometry, reach, bins, jnp.float64)
+        return samples["spring_pairs/histogram"]
+
+    counts = np.asarray(histogram(positions, spring_pairs))
+    edges = np.linspace(0, reach, bins + 1)[1:]
+    expected = n_springs * (n_springs - 1) / 2 * onsager_excluded_volume(edges, length) / edge**3
+    cumulative = np.cumsum(counts)
+    assert expected[-1] > 1000
+    np.testing.assert_array_less(np.abs(cumulative - expected), 4 * np.sqrt(expected) + 1)
+    centres, density = spring_pair_distribution(counts, reach, n_springs)
+    width = reach / bins
+    assert np.sum(density) * width == pytest.approx(2 * cumulative[-1] / n_springs, rel=1e-12)
+    np.testing.assert_allclose(centres, edges - width / 2)
