@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from jaxdpd.boxes import make_box
-from jaxdpd.neighbors.spring_pairs import SpringPairSearch
+from jaxdpd.neighbors.spring_pairs import SpringPairSearch, spring_pair_needs
 from jaxdpd.observables.spring_pairs import spring_pair_distribution, spring_pair_samples
 from jaxdpd.scene import Flow
 from jaxdpd.segments import (
@@ -259,33 +259,18 @@ def test_springs_sharing_a_bead_are_excluded_but_chain_ends_are_not():
     assert np.asarray(geometry.active).tolist() == [False, True, True]
 
 
-@pytest.mark.parametrize("box_kind", sorted(BOXES))
-def test_spring_pair_list_holds_every_pair_within_reach(box_kind):
-    """The list built from midpoints within ℓ_L + D_c (+ skin), screened by the centre
-    distance (fig. 5-3), marks active exactly the pairs whose exact closest approach
-    (all S(S−1)/2 pairs, no bead shared) is below the reach, in a periodic and a
-    Lees–Edwards box."""
-    rng = np.random.default_rng(11)
-    box, box_state = bound(box_kind)
-    beads = 8
-    positions = random_chains(rng, 12, beads, 0.7, 6.0) % 6.0
-    table = SpringTable(
-        np.asarray([c * beads + k for c in range(12) for k in range(beads - 1)], np.int32)
-    )
-    reach = 0.5
-    search = SpringPairSearch(box, table, reach, 0.3, 0.75)
-    spring_pairs = search.allocate(jnp.asarray(positions), box_state)
-    spring_pairs, geometry = jax.jit(search.refresh)(
-        jnp.asarray(positions), spring_pairs, box_state
-    )
-    listed = np.asarray(geometry.active) & (np.asarray(geometry.approach.distance) < reach)
-    found = {
-        (min(a, b), max(a, b))
-        for a, b, keep in zip(
-            np.asarray(spring_pairs.pairs.i), np.asarray(spring_pairs.pairs.j), listed, strict=True
-        )
-        if keep
-    }
+def listed_near_pairs(search, spring_pairs, positions, box_state):
+    """Refresh the list at `positions`: (refreshed list, {(s, u): active pairs of the
+    list closer than the search's reach})."""
+    spring_pairs, geometry = jax.jit(search.refresh)(positions, spring_pairs, box_state)
+    near = np.asarray(geometry.active) & (np.asarray(geometry.approach.distance) < search.reach)
+    i, j = np.asarray(spring_pairs.pairs.i)[near], np.asarray(spring_pairs.pairs.j)[near]
+    return spring_pairs, set(zip(np.minimum(i, j).tolist(), np.maximum(i, j).tolist(), strict=True))
+
+
+def exact_near_pairs(box, box_state, table, positions, reach):
+    """{(s, u): s < u} of all spring pairs sharing no bead closer than `reach` (exact
+    closest approach of every S(S−1)/2 pair)."""
     i, j = all_spring_pairs(table)
 
     @jax.jit
@@ -294,11 +279,58 @@ def test_spring_pair_list_holds_every_pair_within_reach(box_kind):
         springs, midpoints = spring_vectors(bound_box, x, table)
         return spring_pair_geometry(bound_box, springs, midpoints, table, i, j, reach)
 
-    every = every_pair(jnp.asarray(positions))
+    every = every_pair(positions)
     near = np.asarray(every.active) & (np.asarray(every.approach.distance) < reach)
-    expected = set(zip(np.asarray(i)[near].tolist(), np.asarray(j)[near].tolist(), strict=True))
+    return set(zip(np.asarray(i)[near].tolist(), np.asarray(j)[near].tolist(), strict=True))
+
+
+def chain_table(n_chains: int, beads: int) -> SpringTable:
+    starts = [c * beads + k for c in range(n_chains) for k in range(beads - 1)]
+    return SpringTable(np.asarray(starts, np.int32))
+
+
+@pytest.mark.parametrize("box_kind", sorted(BOXES))
+def test_spring_pair_list_holds_every_pair_within_reach(box_kind):
+    """The list built from midpoints within ℓ_L + D_c (+ skin), screened by the centre
+    distance (fig. 5-3), marks active exactly the pairs whose exact closest approach
+    (all S(S−1)/2 pairs, no bead shared) is below the reach, in a periodic and a
+    Lees–Edwards box."""
+    rng = np.random.default_rng(11)
+    box, box_state = bound(box_kind)
+    positions = jnp.asarray(random_chains(rng, 12, 8, 0.7, 6.0) % 6.0)
+    table = chain_table(12, 8)
+    search = SpringPairSearch(box, table, 0.5, 0.3, 0.75)
+    spring_pairs = search.allocate(positions, box_state)
+    _, found = listed_near_pairs(search, spring_pairs, positions, box_state)
+    expected = exact_near_pairs(box, box_state, table, positions, search.reach)
     assert len(expected) > 20
     assert found == expected
+
+
+def test_spring_pair_list_overflow_is_flagged_and_cured_by_reallocation():
+    """A spring stretched beyond the listed length ℓ_L, or springs crowded into one
+    cell beyond the buffers, set the list's overflow; a list allocated with the
+    recorded needs (what the driver does) holds every near pair again."""
+    rng = np.random.default_rng(12)
+    box, box_state = bound("periodic")
+    chains = random_chains(rng, 12, 8, 0.7, 6.0)
+    table = chain_table(12, 8)
+    search = SpringPairSearch(box, table, 0.5, 0.3, 0.75)
+    spring_pairs = search.allocate(jnp.asarray(chains % 6.0), box_state)
+    stretched = chains.copy()
+    stretched[7] = stretched[6] + 1.6 * (stretched[7] - stretched[6]) / np.linalg.norm(
+        stretched[7] - stretched[6]
+    )  # the last spring of chain 0 now 1.6 long
+    crowded = chains.copy()
+    crowded[8:56] = 1.0 + 0.15 * (chains[8:56] - chains[8:56].mean(axis=0))  # into one cell
+    for moved in (stretched, crowded):
+        positions = jnp.asarray(moved % 6.0)
+        refreshed, _ = listed_near_pairs(search, spring_pairs, positions, box_state)
+        assert bool(refreshed.overflow)
+        grown = search.allocate(positions, box_state, spring_pair_needs(refreshed))
+        grown, found = listed_near_pairs(search, grown, positions, box_state)
+        assert not bool(grown.overflow)
+        assert found == exact_near_pairs(box, box_state, table, positions, search.reach)
 
 
 def onsager_excluded_volume(distance, length):

@@ -140,6 +140,10 @@ def test_exponential_repulsion_cuts_spring_crossings_tenfold():
     steps, chunk = 800, 200
     free, free_histogram, _ = count_crossings(scene_free, steps, chunk)
     repelled, repelled_histogram, state = count_crossings(crossing_scene({}), steps, chunk)
+    print(
+        f"crossings: {free} without repulsion, {repelled} with; closest 5 bins: "
+        f"{free_histogram[:5].sum()} vs {repelled_histogram[:5].sum()}"
+    )
     assert free >= 50, f"only {free} crossings without repulsion: too few to compare"
     assert 10 * repelled <= free, (free, repelled)
     # The repulsion's stress is recorded as its own part.
