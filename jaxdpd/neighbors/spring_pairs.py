@@ -148,7 +148,7 @@ class SpringPairSearch:
                 "spring pairs are listed by midpoints within ℓ + range + skin, which must "
                 f"stay below half the box's thinnest height ({half_height:.4g}), so springs "
                 f"may be at most {limit:.4g} long here; enlarge the box, or reduce "
-                "spring_repulsion.skin or the range"
+                "neighbors.spring_skin or spring_repulsion.range"
             )
         wanted = max(self.initial_length, LENGTH_HEADROOM * longest)
         quantised = LENGTH_QUANTUM * math.ceil(wanted / LENGTH_QUANTUM)
