@@ -1,9 +1,11 @@
 """Time integrators.  Each factory returns `step(state) -> state`.
 
-`interactions(positions, velocities, state) -> (vectors, virial, pair_list, bits)` is
+`interactions(positions, velocities, state) -> (vectors, virial, state, bits)` is
 the composed force kernel of the scene (forces for velocity Verlet, impulses for the
-Hoogerbrugge–Koelman collision); it refreshes the neighbour list itself and reports
-error bits of its own (e.g. an overstretched spring).
+Hoogerbrugge–Koelman collision); it refreshes the neighbour lists itself (it returns
+`state` with them refreshed: the pair list, and the spring-pair list where there is
+one) and reports error bits of its own (e.g. an overstretched spring, a spring-pair
+list overflow).
 """
 
 import jax
@@ -80,7 +82,7 @@ def modified_velocity_verlet(
         advanced = state.set(
             positions=positions, image=image, box_state=box_state, step=state.step + 1
         )
-        new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
+        new_forces, virial, advanced, bits = interactions(positions, predicted, advanced)
         right_hand_side = state.velocities + (0.5 * dt_) * (
             rate_of_change + acceleration(new_forces)
         )
@@ -88,10 +90,9 @@ def modified_velocity_verlet(
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
-            pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
+            flags=_flag(state, positions, velocities, advanced.pair_list, kT, bits, masses),
         )
 
     return step
@@ -156,18 +157,17 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
     dt_ = jnp.asarray(dt, dtype)
 
     def step(state):
-        impulses, virial, pair_list, bits = interactions(state.positions, state.velocities, state)
+        impulses, virial, refreshed, bits = interactions(state.positions, state.velocities, state)
         velocities = state.velocities + impulses
         positions, image = box.wrap(state.positions + dt_ * velocities, state.image)
-        return state.set(
+        return refreshed.set(
             positions=positions,
             velocities=velocities,
             image=image,
-            pair_list=pair_list,
             virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits),
+            flags=_flag(state, positions, velocities, refreshed.pair_list, kT, bits),
         )
 
     return step

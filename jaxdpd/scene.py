@@ -63,20 +63,29 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 kind = "tagged": amplitude F, species = name: f_x = F on each of the
                 k particles of that species, −k F/(N − k) on every other one (drag
                 coefficient, thesis §4.2.4)
+    [spring_repulsion] between the springs of all chains (thesis §5.2; jaxdpd.segments):
+                law = "exponential" (A = 100 k_BT, alpha = 10/r_c; Kumar–Larson eq. 5.6)
+                | "linear" (a, force 3a(1 − D/range) at contact distance D; Pan–Manke
+                eq. 5.5); range = r_c/3 > 0; distance_floor = 0.001 r_c (≥ 0, < range);
+                needs [[polymers]]
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
                 lattice_boltzmann); lambda in [0, 1] (dpd only: Lowe–Andersen and
                 lattice-Boltzmann steps have no velocity-dependent force to predict)
     [neighbors] method = "cell_list" | "jax_md" | "all_pairs" (every pair, fixed: for
                 small systems such as one chain); format (jax_md) = "dense" |
-                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
+                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1;
+                spring_skin ≥ 0 (default 0.5: skin of the spring-pair list, used with
+                [spring_repulsion] or the "spring_pairs" observable)
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation", "dynamics", "profile",
-                "transverse_current", "drag" (needs body_force.kind = "tagged")}
-                (default temperature and pressure; no pressure with
-                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs
-                along y); trajectory_every (0 = never); correlator_every ≥ 1 (steps
-                between samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                "transverse_current", "drag" (needs body_force.kind = "tagged"),
+                "spring_pairs"} (default temperature and pressure; no pressure with
+                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs along y);
+                spring_pair_bins ≥ 1, spring_pair_max > 0 (default r_c/3: histogram of
+                spring closest approaches, and spring crossings; needs [[polymers]]);
+                trajectory_every (0 = never); correlator_every ≥ 1 (steps between
+                samples of the "dynamics" correlators), correlator_levels ≥ 1;
                 current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
                 current_modes; cubic boxes); checkpoint_every (steps, 0 = only at
                 the end, on errors and on SIGINT/SIGTERM); trajectory_every and
@@ -90,6 +99,7 @@ from dataclasses import asdict, dataclass, field
 
 from jaxdpd.boxes import make_box
 from jaxdpd.mpcd.cells import collision_grid
+from jaxdpd.segments import SPRING_REPULSION_LAWS
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -132,9 +142,10 @@ OBSERVABLES = (
     "profile",
     "transverse_current",
     "drag",
+    "spring_pairs",
 )
 BODY_FORCE_KINDS = ("cosine", "tagged")
-POLYMER_OBSERVABLES = ("conformation", "dynamics")
+POLYMER_OBSERVABLES = ("conformation", "dynamics", "spring_pairs")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
@@ -266,6 +277,32 @@ class BodyForce:
 
 
 @dataclass(frozen=True)
+class SpringRepulsion:
+    """Repulsion between the springs of every chain (jaxdpd.segments).
+
+    Attributes:
+        law: "exponential" or "linear".
+        parameters: the law's parameters ((name, value), ...): A and alpha, or a.
+        range: D_c, the closest-approach distance from which on the force is zero.
+        distance_floor: D_min, the distance closer springs are treated as being at.
+    """
+
+    law: str
+    parameters: tuple[tuple[str, float], ...]
+    range: float
+    distance_floor: float
+
+    def table(self) -> dict:
+        """The section as a flat dictionary (law, its parameters, range, floor)."""
+        return {
+            "law": self.law,
+            **dict(self.parameters),
+            "range": self.range,
+            "distance_floor": self.distance_floor,
+        }
+
+
+@dataclass(frozen=True)
 class Integrator:
     """Time step and the λ of the modified velocity-Verlet scheme (thesis eq. 2.10)."""
 
@@ -281,6 +318,7 @@ class Neighbors:
     format: str = "ordered_sparse"
     skin: float = 0.0
     capacity_multiplier: float = 1.25
+    spring_skin: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -306,6 +344,8 @@ class Output:
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
+    spring_pair_bins: int = 50
+    spring_pair_max: float = 1.0 / 3.0  # from_dict's default: cutoff / 3
 
 
 @dataclass(frozen=True)
@@ -323,6 +363,7 @@ class Scene:
     polymers: tuple[Polymer, ...] = ()
     flow: Flow | None = None
     body_force: BodyForce | None = None
+    spring_repulsion: SpringRepulsion | None = None
     neighbors: Neighbors = field(default_factory=Neighbors)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
@@ -360,6 +401,7 @@ class Scene:
                 "polymers",
                 "flow",
                 "body_force",
+                "spring_repulsion",
                 "neighbors",
                 "run",
                 "output",
@@ -419,12 +461,22 @@ class Scene:
         if solvent.method == "mpcd":
             _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), heights, run.chunk, solvent)
+        output = _read_output(data.get("output", {}), heights, run.chunk, solvent, cutoff)
         if "transverse_current" in output.observables and len(set(lengths)) != 1:
             raise ValueError(
                 f"output.observables: 'transverse_current' averages the six transverse pairs "
                 f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
             )
+        spring_repulsion = _read_spring_repulsion(data.get("spring_repulsion"), polymers, cutoff)
+        if solvent.method == "mpcd" and (
+            spring_repulsion is not None or "spring_pairs" in output.observables
+        ):
+            raise ValueError(
+                "spring_repulsion / output.observables 'spring_pairs': not available with "
+                "solvent.method = 'mpcd' (its monomer step does not carry the spring-pair "
+                "list); remove them"
+            )
+        _check_spring_reach(spring_repulsion, output, neighbors, heights)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
@@ -454,6 +506,7 @@ class Scene:
             polymers=polymers,
             flow=flow,
             body_force=body_force,
+            spring_repulsion=spring_repulsion,
             neighbors=neighbors,
             run=run,
             output=output,
@@ -477,6 +530,17 @@ class Scene:
     def volume(self) -> float:
         """Box volume."""
         return math.prod(self.box.lengths)
+
+    @property
+    def spring_reach(self) -> float | None:
+        """The largest spring closest-approach distance any term or observable reads
+        (the spring-pair list's reach), or None when nothing reads spring pairs."""
+        reaches = []
+        if self.spring_repulsion is not None:
+            reaches.append(self.spring_repulsion.range)
+        if "spring_pairs" in self.output.observables:
+            reaches.append(self.output.spring_pair_max)
+        return max(reaches) if reaches else None
 
     @property
     def particle_momentum_conserved(self) -> bool:
@@ -522,6 +586,10 @@ class Scene:
             del data["body_force"]["species"]
         else:
             del data["body_force"]["waves"]
+        if self.spring_repulsion is None:
+            del data["spring_repulsion"]
+        else:
+            data["spring_repulsion"] = self.spring_repulsion.table()
         if self.flow is None:
             del data["flow"]
         elif self.flow.oscillation_frequency is None:
@@ -828,7 +896,9 @@ def _read_body_force(section, solvent: Solvent, particles: Particles) -> BodyFor
 
 
 def _read_neighbors(section) -> Neighbors:
-    check_keys(section, ("method", "format", "skin", "capacity_multiplier"), "neighbors")
+    check_keys(
+        section, ("method", "format", "skin", "capacity_multiplier", "spring_skin"), "neighbors"
+    )
     method = read_choice(section, "method", "neighbors", NEIGHBOR_METHODS, "cell_list")
     if method != "jax_md" and "format" in section:
         raise ValueError("neighbors.format: only used with neighbors.method = 'jax_md'")
@@ -841,6 +911,7 @@ def _read_neighbors(section) -> Neighbors:
         capacity_multiplier=read_number(
             section, "capacity_multiplier", "neighbors", 1.25, minimum=1.0
         ),
+        spring_skin=read_number(section, "spring_skin", "neighbors", 0.5, minimum=0),
     )
 
 
@@ -1176,7 +1247,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
+def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) -> Output:
     check_keys(
         section,
         (
@@ -1190,6 +1261,8 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             "correlator_levels",
             "profile_bins",
             "current_modes",
+            "spring_pair_bins",
+            "spring_pair_max",
         ),
         "output",
     )
@@ -1232,4 +1305,64 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
         ),
         profile_bins=read_number(section, "profile_bins", "output", 20, minimum=1, integer=True),
+        spring_pair_bins=read_number(
+            section, "spring_pair_bins", "output", 50, minimum=1, integer=True
+        ),
+        spring_pair_max=read_number(
+            section, "spring_pair_max", "output", cutoff / 3, minimum=0, exclusive_minimum=True
+        ),
     )
+
+
+SPRING_REPULSION_PARAMETERS = {
+    "exponential": {"A": 100.0, "alpha": 10.0},
+    "linear": {"a": REQUIRED},
+}
+
+
+def _read_spring_repulsion(section, polymers, cutoff: float) -> SpringRepulsion | None:
+    if section is None:
+        return None
+    path = "spring_repulsion"
+    keys = {k for p in SPRING_REPULSION_PARAMETERS.values() for k in p}
+    check_keys(section, ("law", *keys, "range", "distance_floor"), path)
+    if not polymers:
+        raise ValueError(
+            f"{path}: acts between the springs of chains; add a [[polymers]] section or remove it"
+        )
+    law = read_choice(section, "law", path, SPRING_REPULSION_LAWS, "exponential")
+    defaults = SPRING_REPULSION_PARAMETERS[law]
+    misplaced = sorted(keys & set(section) - set(defaults))
+    if misplaced:
+        raise ValueError(f"{path}: {misplaced} are not parameters of law {law!r}")
+    parameters = tuple(
+        (key, read_number(section, key, path, default, minimum=0, exclusive_minimum=True))
+        for key, default in defaults.items()
+    )
+    reach = read_number(section, "range", path, cutoff / 3, minimum=0, exclusive_minimum=True)
+    floor = read_number(section, "distance_floor", path, 0.001 * cutoff, minimum=0)
+    if not floor < reach:
+        raise ValueError(f"{path}.distance_floor = {floor}: must be below {path}.range = {reach}")
+    return SpringRepulsion(law, parameters, reach, floor)
+
+
+def _check_spring_reach(spring_repulsion, output: Output, neighbors: Neighbors, heights):
+    """Spring pairs are listed by midpoints within ℓ + reach + skin (ℓ: the longest
+    spring), which must stay below half the box's thinnest height: refuse a reach and
+    skin that leave no room for springs."""
+    reaches = []
+    if spring_repulsion is not None:
+        reaches.append(("spring_repulsion.range", spring_repulsion.range))
+    if "spring_pairs" in output.observables:
+        reaches.append(("output.spring_pair_max", output.spring_pair_max))
+    if not reaches:
+        return
+    name, reach = max(reaches, key=lambda item: item[1])
+    half_height = 0.5 * min(heights)
+    if not reach + neighbors.spring_skin < half_height:
+        raise ValueError(
+            f"{name} = {reach}: with neighbors.spring_skin = {neighbors.spring_skin} it must "
+            f"leave room for the springs below half the box's thinnest height "
+            f"({half_height:.4g}; spring pairs are listed by midpoints within spring length "
+            "+ range + skin); enlarge the box or reduce them"
+        )

@@ -4,11 +4,13 @@ Nothing the scene does not ask for is traced: without a [pair] section there is 
 conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
 Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
 kernel, without [body_force] no external force, with no pair term or thermostat at
-all no neighbour search, and in a box at rest (no [flow]) no flow arithmetic.  With
-solvent.method = "lattice_boltzmann" the particles are beads coupled by friction to
-a lattice-Boltzmann fluid kept in SimState.solvent_state (jaxdpd.lattice_boltzmann);
-with its k_BT = 0 no noise is traced.  With an MPCD solvent only the monomers feel
-forces: the force kernel and its neighbour search cover their index range alone.
+all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
+without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+With solvent.method = "lattice_boltzmann" the particles are beads coupled by
+friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
+(jaxdpd.lattice_boltzmann); with its k_BT = 0 no noise is traced.  With an MPCD
+solvent only the monomers feel forces: the force kernel and its neighbour search
+cover their index range alone.
 
 The bond constants and the body-force amplitude are read from
 `SimState.parameters` (jaxdpd.parameters): one compiled step serves every value.
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
@@ -35,6 +38,12 @@ from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
 from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
 from jaxdpd.mpcd.step import mpcd_step
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.neighbors.spring_pairs import (
+    SpringPairSearch,
+    free_spring_length,
+    spring_pair_needs,
+    spring_pair_shapes,
+)
 from jaxdpd.observables.chain_correlators import (
     init_chain_correlators,
     sample_every,
@@ -43,6 +52,7 @@ from jaxdpd.observables.chain_correlators import (
 from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
 from jaxdpd.observables.drag import relative_velocity_samples
 from jaxdpd.observables.profiles import profile_samples
+from jaxdpd.observables.spring_pairs import spring_pair_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term, wca_term
@@ -50,6 +60,13 @@ from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
 from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
+from jaxdpd.segments import (
+    pair_magnitudes,
+    segment_forces,
+    segment_virial,
+    spring_repulsion_law,
+    spring_table,
+)
 from jaxdpd.state import SimState
 from jaxdpd.thermostats.dpd import groot_warren_term
 from jaxdpd.thermostats.hoogerbrugge_koelman import hoogerbrugge_koelman_term
@@ -77,12 +94,20 @@ class Simulation:
         dtype: floating dtype of positions, velocities and forces.
         masses: (N,) particle masses, or None when all are 1.
         neighbor_search: the neighbour backend (None when no pair term exists).
+        spring_search: the spring-pair list's builder (None when nothing reads spring
+            pairs).
         init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
         step_fn: `step_fn(state) -> (state, samples)`, pure and jittable; samples is
             a dict of per-step arrays (kinetic and virial tensors as requested).
-        reallocate: `reallocate(state, (pairs, cell_occupancy)) -> state` with
-            neighbour buffers re-sized from the state's positions to hold at least
-            the given needs (host side, after an overflow).
+        reallocate: `reallocate(state, needs) -> state` with neighbour buffers
+            re-sized from the state's positions to hold at least `needs` (host side,
+            after an overflow), a tuple as `buffer_needs` gives it (the particle
+            list's (pairs, cell occupancy) first), or None to fit the state alone.
+        buffer_needs: `buffer_needs(state) -> tuple` of NumPy values: what every
+            neighbour buffer needed (for a batch of replicas, arrays over them;
+            `reallocate` takes their largest).
+        buffer_shapes: `buffer_shapes(state) -> tuple`: the static buffer sizes that
+            replicas must share to be stacked.
         init_observers: `init_observers(state) -> state` with empty on-device
             accumulators (`state.observers`), e.g. to discard the equilibration.
     """
@@ -93,10 +118,13 @@ class Simulation:
     dtype: object
     masses: object
     neighbor_search: NeighborSearch | None
+    spring_search: SpringPairSearch | None
     init_fn: Callable
     step_fn: Callable
     reallocate: Callable
     init_observers: Callable
+    buffer_needs: Callable
+    buffer_shapes: Callable
 
 
 def pair_terms(scene: Scene, dtype) -> list:
@@ -148,7 +176,17 @@ def body_force_law(scene: Scene, dtype):
     return tagged_body_force(first, count, scene.n_particles, dtype)
 
 
-def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, body_force):
+def force_kernel(
+    box,
+    terms,
+    search,
+    blocks,
+    cutoff: float,
+    with_virial: bool,
+    body_force,
+    spring_search=None,
+    repulsion=None,
+):
     """The composed force kernel: the pair terms, the body force and the springs of
     every chain block.
 
@@ -164,11 +202,27 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
         blocks: ChainBlocks indexed within the range.
         cutoff: r_c of the pair terms.
         with_virial: compute the virial parts (else none).
-        body_force: `body_force(positions) -> (N, 3)` or None.
+        body_force: `body_force(positions, amplitude) -> (N, 3)` or None.
+        spring_search: the spring-pair list (SpringPairSearch), or None.
+        repulsion: the spring–spring repulsion law (jaxdpd.segments), or None.
     Returns:
         `interactions(positions, velocities, state) -> (vectors, virial parts
-        {name: (3, 3)}, pair_list, error bits)`.
+        {name: (3, 3)}, the state with its neighbour lists refreshed, error bits)`.
     """
+
+    def spring_interactions(positions, state, vectors, virial):
+        """Refresh the spring-pair list; add the spring–spring repulsion if the scene
+        has one.  Returns (vectors, virial, refreshed list, overflow bits)."""
+        spring_pairs, geometry = spring_search.refresh(
+            positions, state.spring_pairs, state.box_state
+        )
+        bits = jnp.where(spring_pairs.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        if repulsion is not None:
+            magnitude = pair_magnitudes(geometry, repulsion)
+            vectors = vectors + segment_forces(geometry, magnitude, positions.shape[0])
+            if with_virial:
+                virial["spring_repulsion"] = segment_virial(geometry, magnitude)
+        return vectors, virial, spring_pairs, bits
 
     def pair_interactions(bound_box, positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
@@ -190,14 +244,16 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
         return vectors, virial, pair_list
 
     def interactions(positions, velocities, state):
-        """Pair terms plus the springs of every chain block, in the box of `state`.
+        """Pair terms plus the springs of every chain block (and their mutual
+        repulsion), in the box of `state`.
 
         Returns:
-            (per-particle vectors, virial parts {name: (3, 3)}, refreshed pair list,
-            error bits).
+            (per-particle vectors, virial parts {name: (3, 3)}, the state with its
+            neighbour lists refreshed, error bits).
         """
         bound_box = box.bind(state.box_state)
         vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
+        state = state.set(pair_list=pair_list)
         if body_force is not None:
             vectors = vectors + body_force(positions, state.parameters["body_force"]["amplitude"])
         bits = jnp.asarray(0, jnp.int32)
@@ -214,7 +270,13 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
                 | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
                 | jnp.where(bonded.past_half_box, errors.SPRING_PAST_HALF_BOX, 0)
             )
-        return vectors, virial, pair_list, bits
+        if spring_search is not None:
+            vectors, virial, spring_pairs, spring_bits = spring_interactions(
+                positions, state, vectors, virial
+            )
+            state = state.set(spring_pairs=spring_pairs)
+            bits = bits | spring_bits
+        return vectors, virial, state, bits
 
     return interactions
 
@@ -279,8 +341,30 @@ def build(scene: Scene) -> Simulation:
             scene.neighbors.format,
         )
 
+    spring_search = None
+    if scene.spring_reach is not None:
+        spring_search = SpringPairSearch(
+            box,
+            spring_table(blocks),
+            scene.spring_reach,
+            scene.neighbors.spring_skin,
+            max(free_spring_length(block.law, scene.solvent.kT) for block in blocks),
+            scene.neighbors.capacity_multiplier,
+        )
+    repulsion = None
+    if scene.spring_repulsion is not None:
+        repulsion = spring_repulsion_law(scene.spring_repulsion.table())
+
     interactions = force_kernel(
-        box, terms, search, local_blocks, scene.cutoff, with_virial, body_force
+        box,
+        terms,
+        search,
+        local_blocks,
+        scene.cutoff,
+        with_virial,
+        body_force,
+        spring_search,
+        repulsion,
     )
 
     fluid = None
@@ -353,8 +437,8 @@ def build(scene: Scene) -> Simulation:
     if "drag" in observables:
         tagged_range = species_range(scene, scene.body_force.species)
 
-    def step_fn(state):
-        state = advance(state)
+    def step_fn(previous):
+        state = advance(previous)
         samples = step_samples(observables, state, masses)
         bound_box = box.bind(state.box_state)
         if "conformation" in observables:
@@ -385,6 +469,18 @@ def build(scene: Scene) -> Simulation:
                 lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
             )
             state = state.set(observers=observers)
+        if "spring_pairs" in observables:
+            # The same list slots at both ends of the step: crossings are reversals.
+            before = spring_search.measure(
+                previous.positions, state.spring_pairs, previous.box_state
+            )
+            after = spring_search.measure(state.positions, state.spring_pairs, state.box_state)
+            output = scene.output
+            samples.update(
+                spring_pair_samples(
+                    before, after, output.spring_pair_max, output.spring_pair_bins, dtype
+                )
+            )
         return state, samples
 
     def init_observers(state):
@@ -420,6 +516,7 @@ def build(scene: Scene) -> Simulation:
             flags=jnp.asarray(0, jnp.int32),
             box_state=box_state,
             parameters=scene_parameters(scene, blocks, dtype),
+            spring_pairs=allocate_spring_pairs(positions, box_state),
         )
         if bath_cutoff is not None:
             state = state.set(solvent_state=empty_record(dtype))
@@ -432,22 +529,64 @@ def build(scene: Scene) -> Simulation:
         if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
             rows = slice(first, stop)
             sub = state.set(image=image[rows], species=species[rows])
-            forces, virial, pair_list, bits = jax.jit(interactions)(
+            forces, virial, refreshed, bits = jax.jit(interactions)(
                 positions[rows], velocities[rows], sub
             )
             state = state.set(
                 forces=state.forces.at[rows].set(forces),
                 virial={**state.virial, **virial},
-                pair_list=pair_list,
+                pair_list=refreshed.pair_list,
+                spring_pairs=refreshed.spring_pairs,
                 flags=bits,
             )
         return state
 
-    def reallocate(state, minimum):
-        return state.set(pair_list=allocate_pairs(state.positions, state.box_state, minimum))
+    def allocate_spring_pairs(positions, box_state, minimum=None):
+        if spring_search is None:
+            return None
+        return spring_search.allocate(positions, box_state, minimum)
+
+    def reallocate(state, minimum=None):
+        if minimum is not None:
+            minimum = tuple(np.max(v) for v in minimum)  # a batch's largest needs
+        particles = None if minimum is None else minimum[:2]
+        state = state.set(pair_list=allocate_pairs(state.positions, state.box_state, particles))
+        if spring_search is None:
+            return state
+        # Without recorded needs, keep at least the longest spring seen so far.
+        springs = minimum[2:] if minimum is not None and len(minimum) > 2 else None
+        springs = springs or (0, 0, np.asarray(state.spring_pairs.longest))
+        return state.set(
+            spring_pairs=allocate_spring_pairs(state.positions, state.box_state, springs)
+        )
+
+    def buffer_needs(state) -> tuple:
+        pair_list = state.pair_list
+        needs = (np.asarray(pair_list.needed_pairs), np.asarray(pair_list.needed_cell_occupancy))
+        if spring_search is not None:
+            needs += spring_pair_needs(state.spring_pairs)
+        return needs
+
+    def buffer_shapes(state) -> tuple:
+        shapes = (state.pair_list.capacity, state.pair_list.cell_capacity)
+        if spring_search is not None:
+            shapes += spring_pair_shapes(state.spring_pairs)
+        return shapes
 
     return Simulation(
-        scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate, init_observers
+        scene,
+        box,
+        blocks,
+        dtype,
+        masses,
+        search,
+        spring_search,
+        init_fn,
+        step_fn,
+        reallocate,
+        init_observers,
+        buffer_needs,
+        buffer_shapes,
     )
 
 

@@ -34,6 +34,8 @@ class SimState:
         parameters: traced model parameters read by the force kernels (bond
             constants, body-force amplitude; see jaxdpd.parameters), a dict pytree;
             change them without recompiling, or give each replica its own.
+        spring_pairs: the spring-pair list (jaxdpd.neighbors.spring_pairs) of scenes
+            with spring–spring repulsion or the "spring_pairs" observable; else None.
     """
 
     positions: jnp.ndarray
@@ -51,3 +53,4 @@ class SimState:
     box_state: object = None
     observers: object = None
     parameters: object = None
+    spring_pairs: object = None
