@@ -11,7 +11,9 @@ to change) instead of NaN or silent drift.  Cases tested here:
 - FENE dumbbells in a DPD solvent under strong shear, and soft ones with a time step
   too large for the springs (named error);
 - Brownian FENE dumbbells at high Deborah number in shear and planar elongation;
-- MPCD with most collision cells empty.
+- MPCD with most collision cells empty;
+- pathwise derivatives through 10⁴ steps (a warning naming the fluctuation
+  estimator), checked against finite differences over a short run.
 
 Cases tested next to their method (same fixtures):
 - Lowe–Andersen at ΓΔt = 1: tests/test_lowe_andersen_fluid.py
@@ -37,6 +39,8 @@ from conftest import make_scene
 from jaxdpd import brownian as bd
 from jaxdpd import driver, errors
 from jaxdpd.boxes.lees_edwards import LeesEdwardsBox
+from jaxdpd.parameters import with_parameters
+from jaxdpd.pathwise import MAX_TANGENT_GROWTH, PathwiseDerivativeWarning, pathwise_derivative
 from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
 
@@ -111,14 +115,18 @@ def test_oscillatory_shear_keeps_its_phase_over_two_million_steps():
     assert box.bind(final).current_shear_rate.dtype == jnp.float32
 
 
-def fene_dumbbell_solution(dt, spring_constant, shear_rate=2.0, max_extension=2.0):
-    """FENE dumbbells (Q0 = 2) in a DPD solvent (20 % beads, float32) under strong
-    shear (γ̇ = 2 heats the peculiar temperature to ≈ 1.5: a hard case)."""
+def fene_dumbbell_solution(
+    dt, spring_constant, shear_rate=2.0, count=750, precision="float32", max_extension=2.0
+):
+    """FENE dumbbells (Q0 = 2) in a DPD solvent (20 % beads), by default under strong
+    shear (γ̇ = 2 heats the peculiar temperature to ≈ 1.5: a hard case); no flow
+    with shear_rate None."""
+    flow = None if shear_rate is None else {"kind": "shear", "shear_rate": shear_rate}
     return make_scene(
-        precision="float32",
+        precision=precision,
         particles={
             "density": 3.0,
-            "count": 750,
+            "count": count,
             "species": [
                 {"name": "solvent", "fraction": 0.8},
                 {"name": "bead", "fraction": 0.2},
@@ -136,7 +144,7 @@ def fene_dumbbell_solution(dt, spring_constant, shear_rate=2.0, max_extension=2.
             }
         ],
         integrator={"dt": dt, "lambda": 0.65},
-        flow={"kind": "shear", "shear_rate": shear_rate},
+        flow=flow,
         output={"observables": ["temperature", "pressure", "conformation"]},
     )
 
@@ -209,3 +217,41 @@ def test_mpcd_with_most_cells_empty_conserves_energy_and_momentum():
     assert np.all(np.isfinite(v1))
     np.testing.assert_allclose(v1.sum(axis=0), v0.sum(axis=0), atol=1e-10 * np.abs(v0).sum())
     assert (v1**2).sum() == pytest.approx((v0**2).sum(), rel=1e-10)
+
+
+def small_dumbbell_solution():
+    """300 particles at rest, float64: FENE H = 3, Q0 = 2 dumbbells."""
+    return fene_dumbbell_solution(0.04, 3.0, shear_rate=None, count=300, precision="float64")
+
+
+def test_short_pathwise_derivative_equals_central_finite_differences():
+    """Over 20 steps the trajectory is a smooth function of H (same counter-based
+    noise for every H), so jvp must equal the central difference
+    [⟨Q²⟩(H + h) − ⟨Q²⟩(H − h)]/(2h) up to its O(h²) truncation and round-off
+    (h = 1e-5 in float64: both below 1e-6 relative)."""
+    simulation = build(small_dumbbell_solution())
+    state = simulation.init_fn()
+    parameter = {"bond": {"bead": "spring_constant"}}
+    _, slope, growth = pathwise_derivative(simulation, state, 20, parameter, "bead/bond_length_sq")
+    h = 1e-5
+    ends = []
+    for sign in (1, -1):
+        shifted = with_parameters(state, {"bond": {"bead": {"spring_constant": 3.0 + sign * h}}})
+        _, samples = driver._scan_chunk(simulation.step_fn, shifted, 20)
+        ends.append(float(np.mean(samples["bead/bond_length_sq"])))
+    assert slope == pytest.approx((ends[0] - ends[1]) / (2 * h), rel=1e-6)
+    assert growth < MAX_TANGENT_GROWTH
+
+
+@pytest.mark.slow
+def test_pathwise_derivative_through_ten_thousand_steps_warns_with_the_estimator_to_use():
+    """Through 10⁴ steps (400 time units) the tangent of a chaotic DPD fluid grows
+    like exp(λ_max t) (module docstring of jaxdpd.pathwise): the derivative must not
+    be returned silently but with a warning naming the fluctuation estimator."""
+    simulation = build(small_dumbbell_solution())
+    state = driver.run(simulation, simulation.init_fn(), 100, 100)
+    with pytest.warns(PathwiseDerivativeWarning, match=r"dpd_fit\.measure_sensitivity"):
+        _, _, growth = pathwise_derivative(
+            simulation, state, 10_000, {"bond": {"bead": "spring_constant"}}, "bead/bond_length_sq"
+        )
+    assert not growth <= MAX_TANGENT_GROWTH
