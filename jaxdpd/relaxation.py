@@ -62,8 +62,7 @@ def end_to_end_series_name(simulation, species: str) -> str:
         raise ValueError("output.observables: add 'conformation' to record ⟨R_e²⟩")
     if scene.flow is None or scene.flow.kind != "planar_elongation":
         raise ValueError(
-            "flow: the relaxation protocol stretches chains in a [flow] of kind "
-            "'planar_elongation'"
+            "flow: the relaxation protocol stretches chains in a [flow] of kind 'planar_elongation'"
         )
     quantity = "end_to_end_sq" if blocks[species].beads > 2 else "bond_length_sq"
     return f"{species}/{quantity}"

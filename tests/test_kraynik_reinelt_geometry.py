@@ -25,8 +25,12 @@ LENGTHS = (6.0, 4.0, 6.0)
 CUTOFF = 1.0
 N = 300
 # Thesis table 3.27: (ε_p, θ) as printed.
-TABLE_3_27 = {1: (0.96242, 0.553574), 2: (1.762747, 0.392699), 3: (2.389526, 0.294001),
-              4: (2.703576, 0.613886)}
+TABLE_3_27 = {
+    1: (0.96242, 0.553574),
+    2: (1.762747, 0.392699),
+    3: (2.389526, 0.294001),
+    4: (2.703576, 0.613886),
+}
 SEARCH = 3
 
 
@@ -54,9 +58,8 @@ def brute_force_pairs(positions, case, strain, cutoff):
     rows = np.arange(len(i))
     close = lengths_sq[rows, best] < cutoff**2
     assert not np.any(edge[best[close]]), "widen the image search"
-    return {
-        (int(a), int(b)): v for a, b, v in zip(i[close], j[close], images[rows, best][close], strict=True)
-    }
+    vectors = images[rows, best][close]
+    return {(int(a), int(b)): v for a, b, v in zip(i[close], j[close], vectors, strict=True)}
 
 
 def listed_pairs(box, search, positions, box_state):
@@ -219,9 +222,7 @@ def test_crossing_a_deforming_face_moves_by_a_lattice_vector():
     positions = jnp.asarray(centre + (fractions - 0.5) @ lattice.T)
     wrapped, image = bound.wrap(positions, jnp.zeros((3, 3), jnp.int32))
     np.testing.assert_allclose(wrapped[0], positions[0] - lattice[:, 0], atol=1e-12)
-    np.testing.assert_allclose(
-        wrapped[1], positions[1] - lattice[:, 1] + lattice[:, 2], atol=1e-12
-    )
+    np.testing.assert_allclose(wrapped[1], positions[1] - lattice[:, 1] + lattice[:, 2], atol=1e-12)
     np.testing.assert_array_equal(image, [[1, 0, 0], [0, 1, -1], [0, 0, 0]])
     assert np.array_equal(np.asarray(wrapped[2]), np.asarray(positions[2]))
 
@@ -270,3 +271,54 @@ def test_strain_stays_bounded_over_200_periods_in_float32():
     exact = (increment * steps + period / 2) % period - period / 2
     assert abs(float(state.strain) - exact) < steps * 0.5 * np.spacing(np.float32(0.5))
     assert increment * steps / period > 200
+
+
+def within_pairs(positions, lattice, cutoff):
+    """Set of pairs (i < j) closer than `cutoff` over the 27 images of a cell."""
+    shifts = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)])
+    i, j = np.triu_indices(len(positions), 1)
+    images = (positions[i] - positions[j])[:, None] - (shifts @ lattice.T)[None]
+    close = np.min(np.sum(images**2, axis=-1), axis=1) < cutoff**2
+    return set(zip(i[close].tolist(), j[close].tolist(), strict=True))
+
+
+def test_skin_criterion_never_misses_a_pair_while_the_lattice_deforms():
+    """Verlet-list soundness (jaxdpd.neighbors.pair_list.needs_rebuild with
+    `image_drift`): pairs within r_c + skin are listed at a reference strain; the
+    lattice then deforms through a strain Δε while the particles move by random
+    displacements, either streaming with the lattice or not at all (the criterion
+    must hold for any motion), and are wrapped.  Whenever the criterion says the list
+    is still good, every pair now within r_c is in it.  The same trials judged without
+    the drift term do miss pairs, so they reach the regime where the term matters."""
+    from types import SimpleNamespace
+
+    from jaxdpd.neighbors.pair_list import needs_rebuild
+
+    box = KraynikReineltBox((4.5, 3.0, 4.5), 1.0, 1)
+    skin, n = 0.4, 120
+    rng = np.random.default_rng(17)
+    kept = missed_without_drift = 0
+    for trial in range(40):
+        reference = state_at(box, rng.uniform(-box.period / 2, box.period / 2))
+        positions = cell_positions(box, reference, rng.uniform(size=(n, 3)))
+        listed = within_pairs(positions, np.asarray(box.bind(reference).lattice_vectors), 1 + skin)
+        change = rng.uniform(-0.1, 0.1)
+        now = box.advance(reference, 0.0, change)
+        centre = np.asarray(box.centre)
+        streamed = change * (trial % 2)
+        moved = centre + (positions - centre) @ np.diag([np.exp(-streamed), 1, np.exp(streamed)])
+        moved += rng.normal(scale=0.02, size=moved.shape)
+        bound = box.bind(now)
+        lattice_now = np.asarray(bound.lattice_vectors)
+        wrapped, _ = bound.wrap(jnp.asarray(moved), jnp.zeros((n, 3), jnp.int32))
+        pair_list = SimpleNamespace(
+            reference_positions=jnp.asarray(positions), reference_box_state=reference
+        )
+        close = within_pairs(np.asarray(wrapped), lattice_now, 1)
+        if not bool(needs_rebuild(box, wrapped, pair_list, now, skin)):
+            kept += 1
+            assert close <= listed, (trial, change)
+        displaced = bound.minimum_image_vectors(wrapped - pair_list.reference_positions)
+        if 2 * float(jnp.max(jnp.linalg.norm(displaced, axis=1))) <= skin:
+            missed_without_drift += not close <= listed
+    assert kept >= 10 and missed_without_drift >= 1, (kept, missed_without_drift)

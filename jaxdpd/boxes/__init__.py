@@ -34,6 +34,4 @@ def make_box(kind: str, lengths, flow=None):
         if flow is None:
             return KraynikReineltBox(lengths)
         return KraynikReineltBox(lengths, flow.elongation_rate, flow.kraynik_reinelt_case)
-    raise ValueError(
-        f"box.kind = {kind!r}; valid: 'periodic', 'lees_edwards', 'kraynik_reinelt'"
-    )
+    raise ValueError(f"box.kind = {kind!r}; valid: 'periodic', 'lees_edwards', 'kraynik_reinelt'")

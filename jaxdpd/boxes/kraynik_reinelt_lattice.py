@@ -116,9 +116,7 @@ class KraynikReineltCase:
     def interval_bounds(self):
         """[(ε_start, ε_end, U)] for each strain interval of one period."""
         edges = [-self.period / 2, *self.switch_strains, self.period / 2]
-        return [
-            (edges[k], edges[k + 1], np.asarray(u)) for k, u in enumerate(self.bases)
-        ]
+        return [(edges[k], edges[k + 1], np.asarray(u)) for k, u in enumerate(self.bases)]
 
     def undeformed_cells(self):
         """(intervals, 2, 2): cell · U_k, the primary cell of each strain interval before
@@ -148,7 +146,7 @@ def _switch(cell, low, high):
     return high
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def kraynik_reinelt_case(number: int) -> KraynikReineltCase:
     """The geometry of case `number` of thesis table 3.27 (see the module docstring).
 
