@@ -1,15 +1,36 @@
-"""Command line: `jaxdpd run SCENE.toml`, `jaxdpd demo`."""
+"""Command line.
+
+    jaxdpd run SCENE.toml [-o FILE] [--steps N] [-q] [--overwrite]
+    jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
+    jaxdpd demo [-o FILE] [-q]
+
+Exit status: 0 done; 2 invalid input (scene, file or arguments; one line on stderr
+names the problem); 3 the simulation became invalid (the last good state is
+checkpointed); 128 + signal number (130 for SIGINT, 143 for SIGTERM) when a signal
+stopped the run, after the chunk in flight, with a checkpoint and the command that
+resumes it.
+"""
 
 import argparse
+import shlex
+import shutil
+import signal
 import sys
 import time
 from importlib import resources
 
+from jaxdpd.driver import RunInterrupted
 from jaxdpd.errors import SimulationError
-from jaxdpd.runner import simulate
+from jaxdpd.io.checkpoint import read_checkpoint_info
+from jaxdpd.io.errors import RunFileError
+from jaxdpd.io.reader import open_run_file
+from jaxdpd.runner import prepare, prepare_resume
 from jaxdpd.scene import Scene
 
 DEMO_SCENE = "demo.toml"
+INVALID_INPUT = 2
+SIMULATION_FAILED = 3
+FINISHED = "end of run"
 
 
 def demo_scene() -> Scene:
@@ -27,50 +48,100 @@ def _describe(scene: Scene) -> str:
     )
 
 
-def _run(scene: Scene, output, quiet: bool) -> int:
-    print(f"jaxdpd: {_describe(scene)}", file=sys.stderr)
+def _refuse_to_clobber(path) -> None:
+    """Refuse to overwrite a file that holds a run which can still be resumed."""
+    try:
+        with open_run_file(path) as handle:
+            info = read_checkpoint_info(handle)
+    except RunFileError:
+        return  # missing, not ours, or nothing to resume: overwriting loses nothing
+    if info.reason != FINISHED:
+        raise ValueError(
+            f"{path} holds an unfinished run (checkpoint at step {info.step}: "
+            f"{info.reason}); resume it with `jaxdpd run --restart {shlex.quote(str(path))}`, "
+            "or pass --overwrite to start afresh"
+        )
+
+
+def _prepare(args):
+    """(the prepared Run, its output path) from the command line; raises on bad input."""
+    options = {"progress": not args.quiet}
+    if args.command == "demo":
+        return prepare(demo_scene(), args.output, **options), args.output
+    if args.restart is not None:
+        if args.scene is not None:
+            raise ValueError("give a scene file or --restart FILE, not both")
+        path = args.restart
+        if args.output is not None and args.output != path:
+            shutil.copyfile(path, args.output)  # continue in the copy, keep the original
+            path = args.output
+        return prepare_resume(path, args.steps, **options), path
+    if args.scene is None:
+        raise ValueError("give a scene file (jaxdpd run SCENE.toml) or --restart FILE")
+    scene = Scene.from_toml(args.scene)
+    if args.steps is not None:
+        scene = scene.replace(run={"steps": args.steps})
+    path = args.output or scene.output.path
+    if path and not args.overwrite:
+        _refuse_to_clobber(path)
+    return prepare(scene, args.output, **options), path
+
+
+def _execute(run, path) -> int:
+    print(f"jaxdpd: {_describe(run.scene)}", file=sys.stderr)
     start = time.perf_counter()
     try:
-        summary = simulate(scene, output_path=output, progress=not quiet)
+        summary = run.execute()
     except SimulationError as error:
-        where = (
-            f"; last good state checkpointed in {output or scene.output.path}"
-            if (output or scene.output.path)
-            else ""
-        )
+        where = f"; last good state checkpointed in {path}" if path else ""
         print(f"jaxdpd: run stopped: {error}{where}", file=sys.stderr)
-        return 3
+        return SIMULATION_FAILED
+    except RunInterrupted as interrupt:
+        print(f"jaxdpd: {interrupt}", file=sys.stderr)
+        if path:
+            print(
+                f"jaxdpd: checkpoint written to {path}; resume with:\n"
+                f"  jaxdpd run --restart {shlex.quote(str(path))}",
+                file=sys.stderr,
+            )
+        else:
+            print("jaxdpd: no output file was given, so the run cannot be resumed", file=sys.stderr)
+        return 128 + signal.Signals[interrupt.signal_name].value
     print(summary.table())
     print(f"total wall time {time.perf_counter() - start:.1f} s (compilation included)")
-    target = output or scene.output.path
-    if target:
-        print(f"output written to {target}")
+    if path:
+        print(f"output written to {path}")
     return 0
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="jaxdpd", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="jaxdpd", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     commands = parser.add_subparsers(dest="command", required=True)
-    run = commands.add_parser("run", help="run a scene file")
-    run.add_argument("scene", help="scene TOML file")
+    run = commands.add_parser("run", help="run a scene file, or continue a run")
+    run.add_argument("scene", nargs="?", help="scene TOML file")
+    run.add_argument(
+        "--restart", metavar="FILE", help="continue the run checkpointed in FILE (appends to it)"
+    )
     run.add_argument("-o", "--output", help="H5MD output file (overrides output.path)")
-    run.add_argument("--steps", type=int, help="override run.steps")
+    run.add_argument("--steps", type=int, help="override run.steps (production steps)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    run.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="overwrite an output file holding an unfinished run",
+    )
     demo = commands.add_parser("demo", help="run the embedded default scene")
     demo.add_argument("-o", "--output", help="H5MD output file")
     demo.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     try:
-        if args.command == "demo":
-            scene = demo_scene()
-        else:
-            scene = Scene.from_toml(args.scene)
-            if args.steps is not None:
-                scene = scene.replace(run={"steps": args.steps})
+        prepared, path = _prepare(args)
     except (ValueError, TypeError, OSError) as error:
-        print(f"jaxdpd: invalid scene: {error}", file=sys.stderr)
-        return 2
-    return _run(scene, args.output, args.quiet)
+        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+        return INVALID_INPUT
+    return _execute(prepared, path)
 
 
 if __name__ == "__main__":

@@ -6,8 +6,15 @@ After every chunk the driver reads the state's error flags:
 - anything else (non-finite values, ...): the last good state (the chunk's start)
   is handed to `on_error` (e.g. written as a checkpoint) and `SimulationError` is
   raised with a message saying what went wrong and what to change.
+
+Before each chunk the driver asks `should_stop()`; a stop request (e.g. from
+`SignalGuard`, which turns SIGINT and SIGTERM into one) raises `RunInterrupted`
+carrying the state after the last finished chunk, so no step is lost.
 """
 
+import os
+import signal
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -29,6 +36,72 @@ class ChunkResult:
     first_step: int
     steps: int
     series: dict
+
+
+class RunInterrupted(Exception):
+    """A run stopped between chunks because a stop was requested.
+
+    Attributes:
+        state: the state after the last finished chunk.
+        signal_name: what asked for the stop (e.g. "SIGINT").
+    """
+
+    def __init__(self, state, signal_name: str):
+        super().__init__(f"interrupted by {signal_name} at step {int(state.step)}")
+        self.state = state
+        self.signal_name = signal_name
+
+
+class SignalGuard:
+    """While active, SIGINT and SIGTERM ask the run to stop at the next chunk boundary.
+
+    The first signal only records the request (`requested` becomes its name) and
+    prints a notice on stderr; it also sets both signals to their default action, so
+    a second one terminates the process at once, even in the middle of a chunk
+    (without a checkpoint: the file keeps the last one written).  Leaving the guard
+    restores the previous handlers.  Signals that were ignored (SIG_IGN) stay
+    ignored, and outside the main thread (where Python cannot install handlers) the
+    guard does nothing.
+
+    Example:
+        with SignalGuard() as guard:
+            state = driver.run(simulation, state, steps, chunk, should_stop=guard)
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.requested: str | None = None
+        self._previous: dict = {}
+
+    def __call__(self) -> str | None:
+        """The name of the signal that asked for a stop, or None."""
+        return self.requested
+
+    def _handle(self, signum, _frame) -> None:
+        self.requested = signal.Signals(signum).name
+        for guarded in self._previous:
+            signal.signal(guarded, signal.SIG_DFL)
+        # os.write: a signal handler must not re-enter a buffered stream.
+        os.write(
+            2,
+            f"\njaxdpd: {self.requested} received: finishing the chunk in flight, then "
+            "writing a checkpoint (send it again to stop at once, without one)\n".encode(),
+        )
+
+    def __enter__(self) -> "SignalGuard":
+        if threading.current_thread() is threading.main_thread():
+            for signum in self.SIGNALS:
+                previous = signal.getsignal(signum)
+                if previous is not signal.SIG_IGN:
+                    self._previous[signum] = previous
+                    signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+        self._previous = {}
 
 
 @partial(jax.jit, static_argnums=(0, 2))
@@ -70,6 +143,7 @@ def run(
     chunk: int,
     on_chunk: Callable[[ChunkResult], None] | None = None,
     on_error: Callable[[object, Exception], None] | None = None,
+    should_stop: Callable[[], str | None] | None = None,
 ):
     """Run `steps` steps in chunks of `chunk`.
 
@@ -80,14 +154,22 @@ def run(
         chunk: steps per jitted scan (≥ 1).
         on_chunk: called with each ChunkResult (writing output, progress, ...).
         on_error: called with (last good state, error) before the error propagates.
+        should_stop: asked before each chunk; a non-empty answer (the reason, e.g. a
+            signal name) stops the run.
     Returns:
         The final state.
+    Raises:
+        SimulationError: a chunk set an error flag (see the module docstring).
+        RunInterrupted: `should_stop` asked for a stop; carries the current state.
     """
     if steps < 0 or chunk < 1:
         raise ValueError(f"run: steps = {steps} must be ≥ 0 and chunk = {chunk} ≥ 1")
     scene = simulation.scene
     done = 0
     while done < steps:
+        reason = should_stop() if should_stop is not None else None
+        if reason:
+            raise RunInterrupted(state, reason)
         length = min(chunk, steps - done)
         try:
             new_state, samples, _ = run_chunk(simulation, state, length)

@@ -46,7 +46,7 @@ def initial_configuration(scene, box, dtype, blocks):
         at_edge = positions >= lengths.astype(dtype)
         positions = np.where(at_edge, 0, positions).astype(dtype)
         image = image + at_edge
-    kT = scene.solvent.kT if scene.solvent.method == "dpd" else 1.0
+    kT = scene.solvent.kT if scene.solvent.method in ("dpd", "lowe_andersen") else 1.0
     counts = [s.count for s in scene.particles.species]
     species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
     masses = np.array([s.mass for s in scene.particles.species])[species]

@@ -1,46 +1,71 @@
-"""`simulate(scene)`: build, equilibrate, run in chunks, measure, write, summarise.
+"""`simulate(scene)` and `resume(path)`: build, equilibrate, run in chunks, measure,
+write, summarise.  This is what `jaxdpd run` and `jaxdpd demo` call.
 
-This is what `jaxdpd run` and `jaxdpd demo` call.  Output (if a path is given) is an
-H5MD file flushed after every chunk, with a checkpoint of the final state, or of the
-last good state when the run stops on an error.
+A run has two phases.  Equilibration runs steps 0 … E (run.equilibration) and
+measures nothing; its end fits the neighbour buffers to the equilibrated
+configuration.  Production runs steps E … E + S (run.steps): every chunk's series
+are appended to the H5MD file (if there is one) and added to running block sums
+(jaxdpd.running_averages), g(r) is sampled at chunk ends, and frames are written
+every output.trajectory_every production steps.  Nothing grows in memory with the
+run's length.
+
+Checkpoints (jaxdpd.io.checkpoint) are written at the end, every
+output.checkpoint_every steps of either phase, when a chunk fails (the last good
+state), and when SIGINT or SIGTERM arrives (after the chunk in flight finishes;
+`RunInterrupted` is then raised).  `resume(path)` continues from a file's
+checkpoint: it drops anything written after it, replays the stored series into the
+block sums, and runs on, so the final state is bit-identical to that of a run that
+was never interrupted.
 """
 
+import contextlib
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from jaxdpd import driver
-from jaxdpd.io.h5md import H5MDWriter
-from jaxdpd.observables.chain_correlators import (
-    center_of_mass_diffusion,
-    chain_correlations,
+from jaxdpd.io.checkpoint import (
+    EQUILIBRATION,
+    PRODUCTION,
+    read_checkpoint_info,
+    read_checkpoint_state,
 )
+from jaxdpd.io.errors import RunFileError
+from jaxdpd.io.h5md import H5MDWriter, box_edges
+from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
+from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
+from jaxdpd.running_averages import RunningBlockAverages
 from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+
+# Components of the pressure tensor reported in the summary table.
+TENSOR_COMPONENTS = ((0, 1, "P_xy"), (0, 0, "P_xx"), (2, 2, "P_zz"))
 
 
 @dataclass
 class RunSummary:
-    """Measured time series and timings of a run.
+    """Averages and timings of a run.
 
     Attributes:
-        series: name -> NumPy time series over the production steps.
         rdf: (r, g) or None.
-        steps: production steps run.
-        wall_seconds: wall time of the production run (compilation included).
+        steps: production steps of the run (run.steps).
+        wall_seconds: wall time of this invocation's production (compilation included).
         state: the final SimState.
-        steady_rate: particle-steps/s after the first chunk (which compiles), or
-            NaN for a single-chunk run.
-        averages: name -> (mean, standard error) of the scalar series.
+        n_particles: N.
+        steady_rate: particle-steps/s after the first chunk (which compiles), or NaN
+            when fewer than two chunks ran.
+        averages: name -> (mean, standard error) of the scalar series over the whole
+            production (20 block averages; NaN error for short runs).
         references: name -> exact value of that series for ideal chains (no pair
             forces), shown beside the measured mean.
+        series: name -> NumPy series of this invocation's production chunks, only
+            with keep_series=True (the file holds them all).
     """
 
-    series: dict
     rdf: tuple | None
     steps: int
     wall_seconds: float
@@ -49,6 +74,7 @@ class RunSummary:
     steady_rate: float = float("nan")
     averages: dict = field(default_factory=dict)
     references: dict = field(default_factory=dict)
+    series: dict = field(default_factory=dict)
 
     def table(self) -> str:
         """Mean ± standard error (20 block averages) of each scalar series."""
@@ -66,21 +92,17 @@ class RunSummary:
         return "\n".join(rows)
 
 
-def _averages(series: dict) -> dict:
-    averages = {}
-    for name, values in series.items():
-        values = np.asarray(values, np.float64)
-        if values.ndim == 1 and len(values) >= 40:
-            mean, error = block_average(values, n_blocks=20)
-            averages[name] = (float(mean), float(error))
-        elif values.ndim == 1 and len(values):
-            averages[name] = (float(values.mean()), float("nan"))
-    tensor = series.get("pressure_tensor")
-    if tensor is not None and len(tensor) >= 40:
-        for a, b, label in ((0, 1, "P_xy"), (0, 0, "P_xx"), (2, 2, "P_zz")):
-            mean, error = block_average(np.asarray(tensor[:, a, b], np.float64), n_blocks=20)
-            averages[label] = (float(mean), float(error))
-    return averages
+def _summary_averages(averages: RunningBlockAverages) -> dict:
+    """Table rows: every scalar series, and components of the pressure tensor."""
+    rows = {}
+    for name in averages.names:
+        mean, error = averages.result(name)
+        if mean.ndim == 0:
+            rows[name] = (float(mean), float(error))
+        elif name == "pressure_tensor":
+            for a, b, label in TENSOR_COMPONENTS:
+                rows[label] = (float(mean[a, b]), float(error[a, b]))
+    return rows
 
 
 class _Progress:
@@ -110,83 +132,284 @@ class _Progress:
             self.stream.flush()
 
 
-def simulate(scene, output_path=None, progress: bool = True, stream=sys.stderr) -> RunSummary:
-    """Run a scene from its seed (see the module docstring).
+class Run:
+    """A prepared run: a state, where it stands, and what each chunk feeds.
+
+    Made by `prepare` (from a scene) or `prepare_resume` (from a file); `execute()`
+    runs it.  Splitting the two lets a caller refuse bad input (which `prepare*`
+    raise) before any step runs.
+
+    Args:
+        simulation: the built scene.
+        state: the state to start from.
+        writer: H5MDWriter or None.
+        phase: the phase `state` belongs to ("equilibration" or "production").
+        progress, stream: progress bar on/off and where it goes (default stderr).
+        on_chunk: user hook called with each production ChunkResult after writing.
+        keep_series: also keep this invocation's series in memory.
+        handle_signals: turn SIGINT/SIGTERM into a checkpointed stop.
+    """
+
+    def __init__(
+        self,
+        simulation,
+        state,
+        writer=None,
+        phase: str = EQUILIBRATION,
+        progress: bool = True,
+        stream=None,
+        on_chunk: Callable | None = None,
+        keep_series: bool = False,
+        handle_signals: bool = True,
+    ):
+        scene = simulation.scene
+        self.simulation, self.scene, self.state = simulation, scene, state
+        self.writer, self.phase = writer, phase
+        self.progress, self.stream = progress, stream if stream is not None else sys.stderr
+        self.user_hook, self.keep_series = on_chunk, keep_series
+        self.handle_signals = handle_signals
+        self.averages = RunningBlockAverages(scene.run.steps)
+        self.rdf = None
+        if "rdf" in scene.output.observables:
+            output = scene.output
+            self.rdf = RadialDistribution(
+                simulation.box, scene.n_particles, output.rdf_max, output.rdf_bins
+            )
+        self.series: dict[str, list] = {}
+        self.chunk_ends = []  # (wall clock, step) of the first and latest production chunk
+
+    # -- host-side accumulators ------------------------------------------------------
+    def extras(self) -> dict:
+        """Accumulators stored with a checkpoint (g(r) histogram)."""
+        if self.rdf is None:
+            return {}
+        return {"rdf_counts": self.rdf.counts, "rdf_samples": np.asarray(self.rdf.samples)}
+
+    def restore(self, handle, step: int, extras: dict) -> None:
+        """Bring the accumulators to checkpoint step `step`: g(r) from the checkpoint's
+        extras, block sums replayed from the stored series in production chunks."""
+        if self.rdf is not None and "rdf_counts" in extras:
+            self.rdf.counts = np.array(extras["rdf_counts"], np.int64)
+            self.rdf.samples = int(extras["rdf_samples"])
+        done = step - self.scene.run.equilibration
+        if self.phase != PRODUCTION or done <= 0:
+            return
+        chunk = self.scene.run.chunk
+        for name in time_series_names(handle):
+            group = handle[f"observables/{name}"]
+            steps = group["step"]
+            first, last = self.scene.run.equilibration + 1, step
+            lengths = {group[part].shape[0] for part in ("step", "time", "value")}
+            if lengths != {done} or steps[0] != first or steps[-1] != last:
+                raise RunFileError(
+                    f"{handle.filename}: observables/{name} does not hold steps "
+                    f"{first}…{last} (the checkpoint's production so far)"
+                )
+            for start in range(0, done, chunk):
+                self.averages.add(start, {name: group["value"][start : start + chunk]})
+
+    # -- the loop --------------------------------------------------------------------
+    def checkpoint(self, state, reason: str) -> None:
+        if self.writer is not None:
+            self.writer.write_checkpoint(state, self.phase, reason, self.extras())
+
+    def _periodic_checkpoint(self, state, phase_start: int) -> None:
+        every = self.scene.output.checkpoint_every
+        if every and (int(state.step) - phase_start) % every == 0:
+            self.checkpoint(state, "periodic")
+
+    def _on_equilibration_chunk(self, result: driver.ChunkResult) -> None:
+        self._periodic_checkpoint(result.state, 0)
+        self.bar.update(int(result.state.step) - self.start_step)
+
+    def _on_production_chunk(self, result: driver.ChunkResult) -> None:
+        scene, state = self.scene, result.state
+        step, start = int(state.step), scene.run.equilibration
+        now = (time.perf_counter(), step)
+        self.chunk_ends = [self.chunk_ends[0] if self.chunk_ends else now, now]
+        self.averages.add(result.first_step - start, result.series)
+        if self.keep_series:
+            for name, values in result.series.items():
+                self.series.setdefault(name, []).append(values)
+        if self.rdf is not None:
+            self.rdf.sample(state.positions, state.box_state)
+        if self.writer is not None:
+            self.writer.append_observables(result.first_step, result.series)
+            every = scene.output.trajectory_every
+            if every and (step - start) % every == 0:
+                bound_box = self.simulation.box.bind(state.box_state)
+                self.writer.append_frame(state, box_edges(bound_box))
+            self._periodic_checkpoint(state, start)
+            self.writer.flush()
+        self.bar.update(step - self.start_step)
+        if self.user_hook is not None:
+            self.user_hook(result)
+
+    def _on_error(self, last_good, error) -> None:
+        self.bar.finish()
+        self.checkpoint(last_good, str(error))
+
+    def _advance(self, state, until: int, on_chunk):
+        """Run chunks from state.step to step `until`, feeding `on_chunk`."""
+        return driver.run(
+            self.simulation,
+            state,
+            until - int(state.step),
+            self.scene.run.chunk,
+            on_chunk,
+            self._on_error,
+            self.should_stop,
+        )
+
+    def execute(self) -> RunSummary:
+        """Run to the end of production, then close the file.
+
+        Raises:
+            SimulationError: a chunk failed (the last good state is checkpointed).
+            driver.RunInterrupted: SIGINT/SIGTERM arrived (checkpointed after the
+                chunk in flight).
+        """
+        scene, simulation, state = self.scene, self.simulation, self.state
+        equilibration = scene.run.equilibration
+        end = equilibration + scene.run.steps
+        self.start_step = int(state.step)
+        self.bar = _Progress(end - self.start_step, self.stream, self.progress)
+        guard = driver.SignalGuard() if self.handle_signals else contextlib.nullcontext()
+        self.should_stop = guard if self.handle_signals else None
+        wall = 0.0
+        # The guard spans the final writes too: a second signal then ends the process.
+        with guard:
+            try:
+                if self.phase == EQUILIBRATION:
+                    state = self._advance(state, equilibration, self._on_equilibration_chunk)
+                    if equilibration:
+                        # Fit the neighbour buffers to the equilibrated configuration: a
+                        # random start has ideal-gas density fluctuations, a DPD liquid
+                        # far smaller ones.
+                        state = simulation.reallocate(state, None)
+                    # On-device correlators measure the production run only.
+                    state = simulation.init_observers(state)
+                    self.phase = PRODUCTION
+                start = time.perf_counter()
+                state = self._advance(state, end, self._on_production_chunk)
+                wall = time.perf_counter() - start
+                self.bar.finish()
+                rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None
+                correlations = self._correlations(state)
+                if self.writer is not None:
+                    self.checkpoint(state, "end of run")
+                    if rdf is not None:
+                        self.writer.write_rdf(*rdf, self.rdf.samples)
+                    for name, (lag_times, values) in correlations.items():
+                        self.writer.write_correlation(name, lag_times, values)
+            except driver.RunInterrupted as interrupt:
+                self.bar.finish()
+                self.checkpoint(interrupt.state, f"interrupted by {interrupt.signal_name}")
+                raise
+            finally:
+                if self.writer is not None:
+                    self.writer.close()
+        return self._summary(state, rdf, correlations, wall)
+
+    def _correlations(self, state) -> dict:
+        """name -> (lag times, values) of the on-device chain correlators."""
+        if state.observers is None:
+            return {}
+        interval = self.scene.output.correlator_every * self.scene.integrator.dt
+        return chain_correlations(state.observers, interval)
+
+    def _summary(self, state, rdf, correlations, wall: float) -> RunSummary:
+        scene = self.scene
+        summary = RunSummary(rdf, scene.run.steps, wall, state, scene.n_particles)
+        if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
+            (t0, s0), (t1, s1) = self.chunk_ends
+            summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
+        summary.averages = _summary_averages(self.averages) | center_of_mass_diffusion(correlations)
+        summary.references = ideal_references(self.simulation.blocks, scene.solvent.kT)
+        summary.series = {name: np.concatenate(parts) for name, parts in self.series.items()}
+        return summary
+
+
+def prepare(scene, output_path=None, **options) -> Run:
+    """Build a scene, draw its initial state and create its output file.
 
     Args:
         scene: a validated Scene.
-        output_path: H5MD file to write; defaults to scene.output.path (may be None).
-        progress: print a progress bar to `stream`.
+        output_path: H5MD file to write (overwritten); defaults to scene.output.path
+            (may be None: nothing is written and the run cannot be resumed).
+        **options: progress, stream, on_chunk, keep_series, handle_signals (see Run).
+    Raises:
+        RunFileError: the output file cannot be created.
+    """
+    simulation = build(scene)
+    state = simulation.init_fn()
+    path = output_path if output_path is not None else scene.output.path
+    writer = H5MDWriter.create(path, scene, simulation.blocks) if path else None
+    return Run(simulation, state, writer, EQUILIBRATION, **options)
+
+
+def prepare_resume(path, steps: int | None = None, **options) -> Run:
+    """Load the run stored in `path` at its checkpoint, to continue in the same file.
+
+    Anything written after the checkpoint (by a run killed before its next one) is
+    dropped, and the stored series are replayed into the block sums.
+
+    Args:
+        path: an H5MD file written by jaxdpd.
+        steps: a new run.steps (production length) to extend a run; at least the
+            production steps the checkpoint has done.  None keeps the stored scene's.
+        **options: as for `prepare`.
+    Raises:
+        RunFileError: the file cannot be read back or holds no usable checkpoint.
+        ValueError: `steps` is shorter than the production already done.
+    """
+    with open_run_file(path) as handle:
+        scene = scene_of(handle)
+        info = read_checkpoint_info(handle)
+        if steps is not None:
+            done = info.step - scene.run.equilibration if info.phase == PRODUCTION else 0
+            if steps < done:
+                raise ValueError(
+                    f"run.steps = {steps}: the checkpoint in {path} has already done {done} "
+                    f"production steps; give at least {done}"
+                )
+            scene = scene.replace(run={"steps": steps})
+        simulation = build(scene)
+        state = read_checkpoint_state(handle, simulation.init_fn())
+    run = Run(simulation, state, None, info.phase, **options)
+    run.writer = H5MDWriter.reopen(path, scene, info.step)
+    try:
+        run.restore(run.writer.file, info.step, info.extras)
+    except OSError as error:  # a stored series fails its Fletcher-32 checksum
+        run.writer.close()
+        raise RunFileError(f"{path}: a stored series is damaged ({error})") from None
+    except BaseException:
+        run.writer.close()
+        raise
+    return run
+
+
+def simulate(scene, output_path=None, progress: bool = True, stream=None, **options):
+    """Run a scene from its seed: `prepare(...).execute()`.
+
+    Args:
+        scene, output_path: see `prepare`.
+        progress: print a progress bar to `stream` (default sys.stderr).
+        **options: on_chunk, keep_series, handle_signals (see Run).
     Returns:
         RunSummary.
     Raises:
         SimulationError: the run became invalid (the file holds a checkpoint of the
             last good state).
+        driver.RunInterrupted: a signal stopped the run (the file holds a checkpoint).
     """
-    simulation = build(scene)
-    state = simulation.init_fn()
-    chunk = scene.run.chunk
-    if scene.run.equilibration:
-        state = driver.run(simulation, state, scene.run.equilibration, chunk)
-        # Fit the neighbour buffers to the equilibrated configuration: a random
-        # start has ideal-gas density fluctuations, a DPD liquid far smaller ones.
-        state = simulation.reallocate(state, None)
-    state = simulation.init_observers(state)  # correlations of the production run only
-    path = output_path if output_path is not None else scene.output.path
-    writer = H5MDWriter(path, scene) if path else None
-    rdf = None
-    if "rdf" in scene.output.observables:
-        rdf = RadialDistribution(
-            simulation.box, scene.n_particles, scene.output.rdf_max, scene.output.rdf_bins
-        )
-    collected: dict[str, list] = {}
-    bar = _Progress(scene.run.steps, stream, progress)
-    first_step = int(state.step)
-    every = scene.output.trajectory_every
-    chunk_ends = []  # (wall clock, step) after each chunk
+    return prepare(scene, output_path, progress=progress, stream=stream, **options).execute()
 
-    def on_chunk(result: driver.ChunkResult) -> None:
-        chunk_ends.append((time.perf_counter(), int(result.state.step)))
-        for name, values in result.series.items():
-            collected.setdefault(name, []).append(values)
-        if rdf is not None:
-            rdf.sample(result.state.positions)
-        if writer is not None:
-            writer.append_observables(result.first_step, scene.integrator.dt, result.series)
-            if every and int(result.state.step) % every == 0:
-                writer.append_frame(result.state)
-            writer.flush()
-        bar.update(int(result.state.step) - first_step)
 
-    def on_error(last_good, error) -> None:
-        bar.finish()
-        if writer is not None:
-            writer.write_checkpoint(last_good, reason=str(error))
+def resume(path, steps: int | None = None, progress: bool = True, stream=None, **options):
+    """Continue the run stored in `path`: `prepare_resume(...).execute()`.
 
-    start = time.perf_counter()
-    try:
-        state = driver.run(simulation, state, scene.run.steps, chunk, on_chunk, on_error)
-        wall = time.perf_counter() - start
-        bar.finish()
-        series = {name: np.concatenate(parts) for name, parts in collected.items()}
-        rdf_result = rdf.result() if rdf is not None and rdf.samples else None
-        correlations = {}
-        if state.observers is not None:
-            interval = scene.output.correlator_every * scene.integrator.dt
-            correlations = chain_correlations(state.observers, interval)
-        if writer is not None:
-            writer.write_checkpoint(state, reason="end of run")
-            if rdf_result is not None:
-                writer.write_rdf(*rdf_result, rdf.samples)
-            for name, (lag_times, values) in correlations.items():
-                writer.write_correlation(name, lag_times, values)
-    finally:
-        if writer is not None:
-            writer.close()
-    summary = RunSummary(series, rdf_result, scene.run.steps, wall, state, scene.n_particles)
-    if len(chunk_ends) > 1:
-        (t0, s0), (t1, s1) = chunk_ends[0], chunk_ends[-1]
-        summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-    summary.averages = _averages(series) | center_of_mass_diffusion(correlations)
-    summary.references = ideal_references(simulation.blocks, scene.solvent.kT)
-    return summary
+    The final state is bit-identical to that of a run never interrupted, and the
+    summary averages cover the whole production (the stored part included).
+    """
+    return prepare_resume(path, steps, progress=progress, stream=stream, **options).execute()

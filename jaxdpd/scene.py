@@ -18,7 +18,7 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 kind = "planar_elongation": elongation_rate ε̇ (1/time, any sign;
                 u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
                 = 1..4 (lattice of thesis table 3.27, default 1); needs a
-                Kraynik–Reinelt box and solvent.method "dpd"
+                Kraynik–Reinelt box and solvent.method "dpd" or "lowe_andersen"
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
@@ -26,18 +26,22 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
                 off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
                 method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
+                method = "lowe_andersen": kT > 0, collision_frequency Γ ≥ 0 (0 =
+                thermostat off; Γ · integrator.dt ≤ 1), thermalization_cutoff r_T > 0
+                (default: cutoff)
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
-                {"A-B" = a_AB, ...} over species names (dpd only)
+                {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen)
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
                 law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
                 (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd solvents only
+                wca_sigma = 1); dpd and lowe_andersen solvents only
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
+                (not for lowe_andersen, whose forces do not depend on velocity)
     [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
@@ -45,7 +49,10 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 "pressure", "rdf", "conformation", "dynamics", "profile"}; rdf_bins,
                 rdf_max; profile_bins ≥ 1 (slabs along y);
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
-                samples of the "dynamics" correlators), correlator_levels ≥ 1
+                samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                checkpoint_every (steps, 0 = only at the end, on errors and on
+                SIGINT/SIGTERM); trajectory_every and checkpoint_every are multiples
+                of run.chunk
 """
 
 import json
@@ -63,7 +70,8 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen")
+LOWE_ANDERSEN_KEYS = ("collision_frequency", "thermalization_cutoff")
 NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md")
@@ -76,9 +84,10 @@ FLOW_FIELDS = {
     "shear": ("shear_rate", "oscillation_frequency"),
     "planar_elongation": ("elongation_rate", "kraynik_reinelt_case"),
 }
-FLOW_SOLVENTS = ("dpd",)
+FLOW_SOLVENTS = ("dpd", "lowe_andersen")
 OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
 POLYMER_OBSERVABLES = ("conformation", "dynamics")
+MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
 @dataclass(frozen=True)
@@ -137,6 +146,8 @@ class Solvent:
     pi0: float = 1.0 / 3.0
     omega: float = 4.0 / 3.0
     delta_pi: float = 1.0 / 3.0
+    collision_frequency: float = 0.0
+    thermalization_cutoff: float | None = None
 
     @property
     def sigma(self) -> float:
@@ -224,6 +235,7 @@ class Output:
     rdf_bins: int = 100
     rdf_max: float = 3.0
     trajectory_every: int = 0
+    checkpoint_every: int = 0
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
@@ -311,14 +323,15 @@ class Scene:
             if isinstance(entry.get("species"), str) and isinstance(entry.get("beads"), int)
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
-        list_cutoff = cutoff + neighbors.skin
+        range_name, pair_range = _pair_range(cutoff, solvent)
+        list_cutoff = pair_range + neighbors.skin
         heights = make_box(box_kind, lengths, flow).cell_heights
         for axis, length, height in zip("xyz", lengths, heights, strict=True):
             if not height > 2 * list_cutoff:
                 tilted = f" (its thinnest cell height {height:.4g} as the box deforms)"
                 raise ValueError(
                     f"box.lengths: L_{axis} = {length:.4g}{tilted if height != length else ''} "
-                    f"must exceed 2 (cutoff + neighbors.skin) = {2 * list_cutoff:.4g}; "
+                    f"must exceed 2 ({range_name} + neighbors.skin) = {2 * list_cutoff:.4g}; "
                     "enlarge the box or add particles"
                 )
         if solvent.method == "hoogerbrugge_koelman" and any(
@@ -330,21 +343,17 @@ class Scene:
             )
         pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
+        _check_collision_probability(solvent, integrator)
         # Springs must stay shorter than half the box for their minimum image to be
         # unique: half the shortest edge, or half the thinnest Kraynik–Reinelt cell.
         spring_room = min(heights) if box_kind == "kraynik_reinelt" else min(lengths)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), lengths, run.chunk)
+        output = _read_output(data.get("output", {}), heights, run.chunk)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
                 "rest; under flow, measure the chains with 'conformation'"
-            )
-        if flow is not None and "rdf" in output.observables:
-            raise ValueError(
-                "output.observables: 'rdf' samples configurations in a box at rest; remove "
-                "it, or the [flow] section"
             )
         for name in POLYMER_OBSERVABLES:
             if name in output.observables and not polymers:
@@ -389,6 +398,8 @@ class Scene:
         """The full resolved scene as plain data; `from_dict` reloads it unchanged."""
         data = asdict(self)
         data["integrator"]["lambda"] = data["integrator"].pop("lambda_")
+        if self.solvent.method == "lowe_andersen":
+            del data["integrator"]["lambda"]
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
             "count": self.particles.count,
@@ -453,6 +464,15 @@ def _solvent_dict(solvent: Solvent) -> dict:
             "gamma": solvent.gamma,
             "noise": solvent.noise,
         }
+    if solvent.method == "lowe_andersen":
+        data = {
+            "method": "lowe_andersen",
+            "kT": solvent.kT,
+            "collision_frequency": solvent.collision_frequency,
+        }
+        if solvent.thermalization_cutoff is not None:
+            data["thermalization_cutoff"] = solvent.thermalization_cutoff
+        return data
     return {
         "method": solvent.method,
         "pi0": solvent.pi0,
@@ -464,10 +484,16 @@ def _solvent_dict(solvent: Solvent) -> dict:
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi"),
+        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi")
+        + LOWE_ANDERSEN_KEYS,
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
+    if method == "lowe_andersen":
+        return _read_lowe_andersen(section)
+    misplaced = sorted(set(LOWE_ANDERSEN_KEYS) & set(section))
+    if misplaced:
+        raise ValueError(f"solvent: {misplaced} belong to method 'lowe_andersen', not {method!r}")
     if method == "dpd":
         misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
         if misplaced:
@@ -494,6 +520,51 @@ def _read_solvent(section) -> Solvent:
         omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
         delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
     )
+
+
+def _read_lowe_andersen(section) -> Solvent:
+    """The Lowe–Andersen thermostat's parameters (thesis §2.3.2)."""
+    misplaced = sorted({"gamma", "sigma", "noise", "pi0", "omega", "delta_pi"} & set(section))
+    if misplaced:
+        raise ValueError(
+            f"solvent: {misplaced} are not parameters of method 'lowe_andersen' (it has "
+            f"kT and {list(LOWE_ANDERSEN_KEYS)}; the pair collisions replace the "
+            "dissipative and random forces)"
+        )
+    if "collision_frequency" not in section:
+        raise ValueError(
+            "solvent.collision_frequency: required field is missing (the bath collision "
+            "frequency Γ of method 'lowe_andersen', ≥ 0, with Γ · integrator.dt ≤ 1)"
+        )
+    return Solvent(
+        "lowe_andersen",
+        kT=read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True),
+        collision_frequency=read_number(section, "collision_frequency", "solvent", minimum=0),
+        thermalization_cutoff=read_number(
+            section, "thermalization_cutoff", "solvent", None, minimum=0, exclusive_minimum=True
+        ),
+    )
+
+
+def _pair_range(cutoff: float, solvent: Solvent) -> tuple[str, float]:
+    """(field name, value) of the longest pair range: r_c, or a longer r_T."""
+    if solvent.thermalization_cutoff is not None and solvent.thermalization_cutoff > cutoff:
+        return "solvent.thermalization_cutoff", solvent.thermalization_cutoff
+    return "cutoff", cutoff
+
+
+def _check_collision_probability(solvent: Solvent, integrator: Integrator) -> None:
+    """Γ Δt is the probability that a pair is thermalised in a step: at most 1."""
+    if solvent.method != "lowe_andersen":
+        return
+    frequency, dt = solvent.collision_frequency, integrator.dt
+    if frequency * dt > 1 + 1e-12:
+        raise ValueError(
+            f"solvent.collision_frequency × integrator.dt = {frequency:g} × {dt:g} = "
+            f"{frequency * dt:.4g} > 1: Γ Δt is the probability that a pair is thermalised "
+            f"in a step (thesis §2.3.2); use collision_frequency ≤ 1/dt = {1 / dt:.6g} "
+            f"or integrator.dt ≤ 1/collision_frequency = {1 / frequency:.6g}"
+        )
 
 
 def _kind(flow: Flow | None) -> str | None:
@@ -587,7 +658,9 @@ def _read_particles(section, lengths, chain_lengths: dict):
     if "density" in section:
         density = read_number(section, "density", "particles", minimum=0, exclusive_minimum=True)
     if "count" in section:
-        count = read_number(section, "count", "particles", minimum=2, integer=True)
+        count = read_number(
+            section, "count", "particles", minimum=2, maximum=MAX_PARTICLES, integer=True
+        )
     if lengths is not None:
         volume = math.prod(lengths)
         if (density is None) == (count is None):
@@ -596,6 +669,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "and particles.count"
             )
         if count is None:
+            if not density * volume <= MAX_PARTICLES:
+                raise ValueError(
+                    f"particles.density = {density}: the box would hold {density * volume:.4g} "
+                    f"particles, more than {MAX_PARTICLES} (int32 particle indices)"
+                )
             count = round(density * volume)
             if count < 2:
                 raise ValueError(
@@ -609,6 +687,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "particles.count (the box is then cubic)"
             )
         side = (count / density) ** (1.0 / 3.0)
+        if not math.isfinite(side):
+            raise ValueError(
+                f"particles.density = {density}: a cubic box of {count} particles at this "
+                "density has no finite side; give a larger density"
+            )
         lengths = (side, side, side)
         density = count / math.prod(lengths)
     species = _read_species(section.get("species", [{"name": "solvent"}]), count, chain_lengths)
@@ -733,9 +816,10 @@ def _polymer_entries(entries) -> list:
 
 
 def _read_polymers(entries: list, species, solvent: Solvent, spring_room) -> tuple[Polymer, ...]:
-    if entries and solvent.method != "dpd":
+    if entries and solvent.method not in ("dpd", "lowe_andersen"):
         raise ValueError(
-            f"polymers: bead-spring chains need solvent.method = 'dpd' (got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd' or 'lowe_andersen' "
+            f"(got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -795,6 +879,11 @@ def _read_bond(section, path: str, spring_room: float) -> dict:
 def _read_integrator(section, solvent: Solvent) -> Integrator:
     section = section if section is not None else {}
     check_keys(section, ("dt", "lambda"), "integrator")
+    if solvent.method == "lowe_andersen" and "lambda" in section:
+        raise ValueError(
+            "integrator.lambda: the Lowe–Andersen step has no velocity-dependent force, so "
+            "the λ of Groot and Warren's modified velocity Verlet plays no role; remove it"
+        )
     default_dt = 1.0 if solvent.method == "hoogerbrugge_koelman" else 0.04
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
@@ -810,7 +899,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, lengths, chunk: int) -> Output:
+def _read_output(section, heights, chunk: int) -> Output:
     check_keys(
         section,
         (
@@ -819,6 +908,7 @@ def _read_output(section, lengths, chunk: int) -> Output:
             "rdf_bins",
             "rdf_max",
             "trajectory_every",
+            "checkpoint_every",
             "correlator_every",
             "correlator_levels",
             "profile_bins",
@@ -830,25 +920,25 @@ def _read_output(section, lengths, chunk: int) -> Output:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")
     rdf_max = read_number(section, "rdf_max", "output", 3.0, minimum=0, exclusive_minimum=True)
-    trajectory_every = read_number(
-        section, "trajectory_every", "output", 0, minimum=0, integer=True
-    )
-    if trajectory_every % chunk:
+    every = {}
+    for key, what in (("trajectory_every", "frames"), ("checkpoint_every", "checkpoints")):
+        every[key] = read_number(section, key, "output", 0, minimum=0, integer=True)
+        if every[key] % chunk:
+            raise ValueError(
+                f"output.{key} = {every[key]}: {what} are written at chunk ends, so it "
+                f"must be a multiple of run.chunk = {chunk} (or 0 for none)"
+            )
+    if "rdf" in observables and not rdf_max < min(heights) / 2:
         raise ValueError(
-            f"output.trajectory_every = {trajectory_every}: frames are written at chunk ends, "
-            f"so it must be a multiple of run.chunk = {chunk} (or 0 for no frames)"
-        )
-    if "rdf" in observables and not rdf_max < min(lengths) / 2:
-        raise ValueError(
-            f"output.rdf_max = {rdf_max}: must be < half the shortest box edge "
-            f"({min(lengths) / 2:.4g})"
+            f"output.rdf_max = {rdf_max}: must be < half the box's thinnest extent "
+            f"({min(heights) / 2:.4g}; the shortest edge, or a sheared box's tilted height)"
         )
     return Output(
         path=read_string(section, "path", "output", None),
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
-        trajectory_every=trajectory_every,
+        **every,
         correlator_every=read_number(
             section, "correlator_every", "output", 10, minimum=1, integer=True
         ),

@@ -1,10 +1,10 @@
 """`build(scene)`: compose a pure step function from exactly the terms a scene names.
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
-conservative force, with γ = 0 no dissipative or random force, without "pressure"
-no virial, without [[polymers]] no bond kernel, without [body_force] no external
-force, with no pair term at all no
-neighbour search, and in a box at rest (no [flow]) no flow arithmetic.
+conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
+Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
+kernel, without [body_force] no external force, with no pair term or thermostat at
+all no neighbour search, and in a box at rest (no [flow]) no flow arithmetic.
 """
 
 import functools
@@ -18,7 +18,11 @@ from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import make_box
 from jaxdpd.forcing import cosine_body_force
-from jaxdpd.integrators import collide_and_stream, modified_velocity_verlet
+from jaxdpd.integrators import (
+    collide_and_stream,
+    modified_velocity_verlet,
+    thermalized_velocity_verlet,
+)
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_correlators import (
     init_chain_correlators,
@@ -35,6 +39,7 @@ from jaxdpd.scene import Scene
 from jaxdpd.state import SimState
 from jaxdpd.thermostats.dpd import groot_warren_term
 from jaxdpd.thermostats.hoogerbrugge_koelman import hoogerbrugge_koelman_term
+from jaxdpd.thermostats.lowe_andersen import empty_record, lowe_andersen_thermostat
 from jaxdpd.topology import chain_blocks
 
 
@@ -118,6 +123,16 @@ def particle_masses(scene: Scene, dtype):
     )
 
 
+def thermalization_cutoff(scene: Scene) -> float | None:
+    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
+    solvent = scene.solvent
+    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
+        return None
+    if solvent.thermalization_cutoff is None:
+        return scene.cutoff
+    return solvent.thermalization_cutoff
+
+
 @functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
@@ -131,17 +146,18 @@ def build(scene: Scene) -> Simulation:
     blocks = chain_blocks(scene)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
+    bath_cutoff = thermalization_cutoff(scene)
     body_force = None
     if scene.body_force is not None:
         body_force = cosine_body_force(
             scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
         )
     search = None
-    if terms:
+    if terms or bath_cutoff is not None:
         search = neighbor_search(
             box,
             n,
-            scene.cutoff,
+            max(scene.cutoff, bath_cutoff or 0.0),
             scene.neighbors.skin,
             scene.neighbors.method,
             scene.neighbors.format,
@@ -149,9 +165,11 @@ def build(scene: Scene) -> Simulation:
 
     def pair_interactions(bound_box, positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
-        if not terms:
+        if search is None:
             return jnp.zeros_like(positions), {}, state.pair_list
         pair_list = search.update(positions, state.pair_list, state.box_state)
+        if not terms:  # the list serves the thermostat alone
+            return jnp.zeros_like(positions), {}, pair_list
         geometry = pair_geometry(bound_box, positions, pair_list, scene.cutoff, search.half)
         key = noise.step_key(state.seed, state.step)
         context = PairContext(velocities, state.species, key)
@@ -192,6 +210,35 @@ def build(scene: Scene) -> Simulation:
 
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+    elif bath_cutoff is not None:
+        lowe_andersen = lowe_andersen_thermostat(
+            n,
+            min(1.0, scene.solvent.collision_frequency * scene.integrator.dt),
+            scene.solvent.kT,
+            bath_cutoff,
+            scene.integrator.dt,
+            dtype,
+            search.half,
+            masses,
+            with_virial,
+        )
+
+        def thermalize(state, velocities):
+            """Thermalise at the state's positions and box; noise keyed by its step."""
+            key = noise.step_key(state.seed, state.step)
+            bound_box = box.bind(state.box_state)
+            return lowe_andersen(bound_box, state.positions, velocities, state.pair_list, key)
+
+        advance = thermalized_velocity_verlet(
+            box,
+            scene.integrator.dt,
+            interactions,
+            thermalize,
+            scene.solvent.kT,
+            dtype,
+            masses,
+            with_virial,
+        )
     else:
         advance = modified_velocity_verlet(
             box,
@@ -261,11 +308,16 @@ def build(scene: Scene) -> Simulation:
         )
         # Zeros of the virial parts a step records, so the state keeps one structure.
         parts = jax.eval_shape(interactions, positions, velocities, state)[1]
+        if bath_cutoff is not None and with_virial:
+            parts = {**parts, "impulse": jax.ShapeDtypeStruct((3, 3), dtype)}
         state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
         state = init_observers(state)
-        if scene.solvent.method == "dpd":
+        if scene.solvent.method in ("dpd", "lowe_andersen"):
             forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
+            virial = {**state.virial, **virial}  # keeps the thermostat's "impulse" zeros
             state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
+        if bath_cutoff is not None:
+            state = state.set(solvent_state=empty_record(dtype))
         return state
 
     def reallocate(state, minimum):

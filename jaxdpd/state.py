@@ -25,7 +25,8 @@ class SimState:
         seed: uint32 seed of the counter-based noise.
         flags: int32 error bits (see jaxdpd.errors).
         solvent_state: state a solvent method keeps beside the particles (e.g. a
-            lattice-Boltzmann fluid), a pytree; None for particle solvents.
+            lattice-Boltzmann fluid, or the Lowe–Andersen thermostat's record of its
+            last sweep), a pytree; None for other particle solvents.
         box_state: traced state of a flowing box (e.g. the Lees–Edwards offset and
             shear rate); None for a box at rest.
         observers: accumulators of observables measured on device while the run goes

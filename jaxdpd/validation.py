@@ -55,6 +55,8 @@ def read_number(
         raise TypeError(f"{name}: expected {kind}, got {type(value).__name__} {value!r}")
     if integer and not isinstance(value, int):
         raise TypeError(f"{name}: expected an integer, got {value!r}")
+    if isinstance(value, int) and not -(2**63) <= value < 2**63:
+        raise ValueError(f"{name}: must lie within the 64-bit integer range (as in TOML)")
     if not math.isfinite(value):
         raise ValueError(f"{name}: must be finite, got {value!r}")
     if minimum is not None:

@@ -2,38 +2,105 @@
 
 import h5py
 import numpy as np
-from conftest import make_scene
+from io_runs import (
+    assert_same_leaves,
+    lees_edwards_edges,
+    polymer_reference_run,
+    reference_run,
+)
 
 from jaxdpd.cli import demo_scene, main
-from jaxdpd.io.h5md import read_observable, read_scene
-from jaxdpd.runner import simulate
+from jaxdpd.io import load, read_observable, read_scene, read_trajectory
+from jaxdpd.statistics import block_average
 
 
-def test_h5md_file_holds_layout_scene_observables_and_frames(tmp_path):
-    scene = make_scene(
-        run={"steps": 60, "chunk": 20, "equilibration": 20},
-        output={
-            "observables": ["temperature", "pressure", "rdf"],
-            "rdf_max": 2.5,
-            "trajectory_every": 20,
-        },
-    )
-    path = tmp_path / "run.h5"
-    summary = simulate(scene, output_path=path, progress=False)
+def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint():
+    """Layout of H5MD 1.1 (nongnu.org/h5md, "H5MD root level", "Particles group",
+    "Simulation box"): metadata, box with step/time hard-linked to position's, image
+    likewise, species, observables with step and time = step × dt, checkpoint."""
+    reference = reference_run()
+    scene, path = reference.scene, reference.path
+    steps, every = scene.run.steps, scene.output.trajectory_every
     with h5py.File(path, "r") as handle:
         assert list(handle["h5md"].attrs["version"]) == [1, 1]
-        np.testing.assert_allclose(handle["particles/all/box/edges"][()], scene.box.lengths)
-        positions = handle["particles/all/position/value"]
-        assert positions.shape == (3, scene.n_particles, 3)
-        assert list(handle["particles/all/position/step"][()]) == [40, 60, 80]
-        assert handle["observables/rdf/g"].shape == (scene.output.rdf_bins,)
+        assert handle["h5md/creator"].attrs["name"] == "jaxdpd"
+        assert "name" in handle["h5md/author"].attrs
+        assert "r_c = m = k_BT = 1" in handle["parameters"].attrs["units"]
+        particles = handle["particles/all"]
+        assert particles["box"].attrs["dimension"] == 3
+        assert [b.decode() for b in particles["box"].attrs["boundary"]] == ["periodic"] * 3
+        position = particles["position"]
+        frames = list(range(every, steps + 1, every))
+        assert list(position["step"][()]) == frames
+        np.testing.assert_array_equal(position["time"][()], np.array(frames) * scene.integrator.dt)
+        assert position["value"].shape == (len(frames), scene.n_particles, 3)
+        for element in ("velocity", "image", "box/edges"):
+            assert particles[f"{element}/step"] == position["step"]  # one object: hard link
+            assert particles[f"{element}/time"] == position["time"]
+        # Lees–Edwards shear: triclinic edges whose a2 carries the offset; the run
+        # sums Δ step by step, the formula at once: equal to round-off (1e-12).
+        edges = particles["box/edges/value"][()]
+        expected = [lees_edwards_edges(scene, step) for step in frames]
+        np.testing.assert_allclose(edges, expected, rtol=0, atol=1e-12)
+        assert particles["image/value"].dtype == np.int32
+        species = particles["species"]
+        assert h5py.check_enum_dtype(species.dtype) == {"solvent": 0}
+        assert species.shape == (scene.n_particles,)
+        temperature = handle["observables/temperature"]
+        assert temperature["value"].fletcher32
+        assert temperature["time"].attrs["reduced_unit"] == "τ"
+        assert handle["observables/pressure_tensor/value"].shape == (steps, 3, 3)
+        assert handle["checkpoint"].attrs["reason"] == "end of run"
+        assert handle["checkpoint"].attrs["step"] == steps
     assert read_scene(path) == scene
-    steps, times, temperature = read_observable(path, "temperature")
-    assert list(steps) == list(range(21, 81))
-    np.testing.assert_allclose(times, steps * scene.integrator.dt)
-    np.testing.assert_allclose(temperature, summary.series["temperature"])
-    _, _, tensor = read_observable(path, "pressure_tensor")
-    assert tensor.shape == (60, 3, 3)
+    series = read_observable(path, "temperature")
+    np.testing.assert_array_equal(series.step, np.arange(1, steps + 1))
+    np.testing.assert_array_equal(series.time, series.step * scene.integrator.dt)
+    final = read_trajectory(path, "position").value[-1]
+    np.testing.assert_array_equal(final, reference.summary.state.positions)
+
+
+def test_polymer_runs_store_bonds_and_run_averages():
+    """/connectivity/bonds (H5MD 1.1 "Connectivity group"), g(r) and the on-device
+    time correlations under /averages."""
+    reference = polymer_reference_run()
+    scene = reference.scene
+    with h5py.File(reference.path, "r") as handle:
+        bonds = handle["connectivity/bonds"]
+        assert handle[bonds.attrs["particles_group"]].name == "/particles/all"
+        np.testing.assert_array_equal(bonds[:3], [[0, 1], [2, 3], [4, 5]])
+        assert handle["averages/rdf/g"].shape == (scene.output.rdf_bins,)
+        assert handle["averages/rdf"].attrs["samples"] == scene.run.steps // scene.run.chunk
+        for name in ("g1", "g2", "g3", "end_to_end_acf"):
+            correlation = handle[f"averages/dumbbell/{name}"]
+            assert correlation["lag_time"].shape == correlation["value"].shape
+    assert "dumbbell/D_CM" in reference.summary.averages
+
+
+def test_load_gives_back_scene_state_and_every_observable():
+    reference = reference_run()
+    record = load(reference.path)
+    assert record.scene == reference.scene
+    assert_same_leaves(record.state, reference.summary.state)
+    assert (record.checkpoint.step, record.checkpoint.phase) == (2400, "production")
+    parts = [f"pressure_tensor_part/{p}" for p in ("kinetic", "conservative", "dissipative")]
+    expected = ["temperature", *parts, "pressure_tensor_part/random", "pressure_tensor"]
+    assert list(record.observables) == [*expected, "pressure"]  # in the order written
+    assert record.observables["pressure_tensor"].value.shape == (2400, 3, 3)
+
+
+def test_streamed_block_averages_equal_those_of_the_stored_series():
+    """The summary's running block sums (jaxdpd.running_averages) against
+    statistics.block_average of the whole series read back from the file: same
+    blocks, float64 sums in another order, so equal to round-off (1e-12 relative)."""
+    reference = reference_run()
+    averages = reference.summary.averages
+    for name, label in (("temperature", "temperature"), ("pressure", "pressure")):
+        mean, error = block_average(read_observable(reference.path, name).value, 20)
+        np.testing.assert_allclose(averages[label], (mean, error), rtol=1e-12)
+    tensor = read_observable(reference.path, "pressure_tensor").value
+    mean, error = block_average(tensor[:, 0, 1], 20)
+    np.testing.assert_allclose(averages["P_xy"], (mean, error), rtol=1e-12)
 
 
 def test_cli_run_writes_output_and_prints_a_summary(tmp_path, capsys):
@@ -59,7 +126,9 @@ chunk = 30
     assert main(["run", str(scene_file), "-o", str(output), "-q"]) == 0
     printed = capsys.readouterr().out
     assert "temperature" in printed and "pressure" in printed and "particle-steps/s" in printed
-    assert output.exists()
+    with h5py.File(output, "r") as handle:  # no frames: the box is a fixed element
+        edges = handle["particles/all/box/edges"][()]
+    np.testing.assert_allclose(edges, [(500 / 3.0) ** (1 / 3)] * 3, rtol=1e-15)
 
 
 def test_cli_refuses_an_invalid_scene_with_the_field_named(tmp_path, capsys):

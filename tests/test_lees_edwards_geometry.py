@@ -194,3 +194,20 @@ def test_dpd_forces_across_the_moving_boundary_use_laboratory_velocities():
                 )
                 np.add.at(forces, i, magnitude[:, None] * e)
     np.testing.assert_allclose(np.asarray(after.forces), forces, atol=1e-9)
+
+
+def test_radial_distribution_in_a_sheared_box_counts_image_search_distances(sheared):
+    """g(r)'s pair histogram at a large offset equals the histogram of the
+    brute-force shortest image distances."""
+    from jaxdpd.observables.rdf import RadialDistribution
+
+    box, _ = sheared
+    state = box_state(box, 0.45 * LENGTHS[0])
+    positions = np.random.default_rng(5).uniform(size=(N, 3)) * np.asarray(LENGTHS)
+    rdf = RadialDistribution(box, N, 2.0, 20)
+    rdf.sample(jnp.asarray(positions), state)
+    distances = [
+        np.linalg.norm(v) for v in brute_force_pairs(positions, LENGTHS, 0.45 * 7.0, 2.0).values()
+    ]
+    expected, _ = np.histogram(distances, bins=20, range=(0.0, 2.0))
+    np.testing.assert_array_equal(rdf.counts, expected)

@@ -102,7 +102,7 @@ def test_ideal_gas_rdf_is_one_and_pressure_is_rho_kT():
         run={"steps": 500, "chunk": 50},
         output={"observables": ["temperature", "pressure", "rdf"], "rdf_max": 2.5, "rdf_bins": 25},
     )
-    summary = simulate(scene, progress=False)
+    summary = simulate(scene, progress=False, keep_series=True)
     r, g = summary.rdf
     n = scene.n_particles
     edges = np.linspace(0, 2.5, 26)

@@ -1,1 +1,40 @@
-"""Output files: H5MD trajectories and observables, checkpoints."""
+"""Output files: H5MD trajectories and observables, checkpoints, and reading them back.
+
+H5MDWriter                          jaxdpd.io.h5md (layout in its docstring)
+write_tree / read_tree              any pytree to/from an HDF5 group, bit for bit
+load, read_scene, read_state,       jaxdpd.io.reader
+read_observable(s), read_trajectory,
+read_checkpoint
+RunFileError                        raised for files that cannot be read back
+"""
+
+from jaxdpd.io.errors import RunFileError
+from jaxdpd.io.h5md import H5MDWriter
+from jaxdpd.io.pytree_store import read_tree, write_tree
+from jaxdpd.io.reader import (
+    RunRecord,
+    Series,
+    load,
+    read_checkpoint,
+    read_observable,
+    read_observables,
+    read_scene,
+    read_state,
+    read_trajectory,
+)
+
+__all__ = [
+    "H5MDWriter",
+    "RunFileError",
+    "RunRecord",
+    "Series",
+    "load",
+    "read_checkpoint",
+    "read_observable",
+    "read_observables",
+    "read_scene",
+    "read_state",
+    "read_trajectory",
+    "read_tree",
+    "write_tree",
+]

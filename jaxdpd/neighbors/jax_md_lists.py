@@ -6,6 +6,8 @@ skin, jax-md's `dr_threshold`) are jax-md's own; overflow is its sticky
 `did_buffer_overflow` flag.
 """
 
+import functools
+
 import jax.numpy as jnp
 from jax_md import partition, space
 
@@ -43,6 +45,10 @@ def jax_md_search(box: PeriodicBox, n_particles: int, cutoff: float, skin: float
         raise ValueError(f"neighbors.format = {fmt!r}; valid: {sorted(FORMATS)}")
     sides = jnp.asarray(box.lengths)
 
+    # One list function per (dtype, multiplier): jax-md's update function is a
+    # static field of its NeighborList, so a fresh closure per allocation would
+    # recompile every chunk that carries the list.
+    @functools.lru_cache(maxsize=8)
     def make_list_fn(dtype, capacity_multiplier):
         displacement, _ = space.periodic(sides.astype(dtype))
         return partition.neighbor_list(

@@ -23,7 +23,7 @@ class RadialDistribution:
     """Accumulates pair-distance histograms over sampled configurations.
 
     Args:
-        box: periodic box (r_max must be < half its shortest edge).
+        box: the static box (r_max must be < half its thinnest cell height).
         n_particles: N.
         r_max: largest distance histogrammed.
         bins: number of equal-width shells on [0, r_max).
@@ -54,27 +54,29 @@ class RadialDistribution:
         )
 
     @partial(jax.jit, static_argnums=0)
-    def _histogram(self, positions, pair_list):
+    def _histogram(self, positions, pair_list, box_state):
         if not self._all_pairs:
-            pair_list = self._search.update(positions, pair_list)
-        geometry = pair_geometry(self.box, positions, pair_list, self.r_max, half=True)
+            pair_list = self._search.update(positions, pair_list, box_state)
+        bound_box = self.box.bind(box_state)
+        geometry = pair_geometry(bound_box, positions, pair_list, self.r_max, half=True)
         shell = jnp.floor(geometry.distance * (self.bins / self.r_max)).astype(jnp.int32)
         shell = jnp.where(geometry.within, shell, self.bins)
         counts = jnp.zeros(self.bins + 1, jnp.int32).at[shell].add(1)[: self.bins]
         return counts, pair_list
 
-    def sample(self, positions) -> None:
-        """Add one configuration (N, 3) to the histogram."""
+    def sample(self, positions, box_state=None) -> None:
+        """Add one configuration (N, 3) to the histogram (`box_state`: that of a
+        flowing box, None at rest)."""
         if self._pairs is None:
             if self._all_pairs:
                 self._pairs = self._every_pair(positions)
             else:
-                self._pairs = self._search.allocate(positions, 1.5)
-        counts, pairs = self._histogram(positions, self._pairs)
+                self._pairs = self._search.allocate(positions, 1.5, box_state=box_state)
+        counts, pairs = self._histogram(positions, self._pairs, box_state)
         if bool(pairs.overflow):
             needs = (int(pairs.needed_pairs), int(pairs.needed_cell_occupancy))
-            self._pairs = self._search.allocate(positions, 1.5, minimum=needs)
-            counts, pairs = self._histogram(positions, self._pairs)
+            self._pairs = self._search.allocate(positions, 1.5, minimum=needs, box_state=box_state)
+            counts, pairs = self._histogram(positions, self._pairs, box_state)
         self.counts += np.asarray(counts)
         self.samples += 1
 
