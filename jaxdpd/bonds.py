@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 
+from jaxdpd.pairs import wca_energy, wca_force_over_distance
+
 # 1 − Q²/Q0² is floored here when a FENE spring is at or past Q0 (the step is
 # flagged and the run stops at the end of the chunk).
 FENE_DENOMINATOR_FLOOR = 1e-6
@@ -134,21 +136,12 @@ def fene_log_wca(
     k, r0, eps, sigma = spring_constant, max_extension, wca_epsilon, wca_sigma
     wca_range_sq = 2 ** (1 / 3) * sigma * sigma
 
-    def wca_parts(q_sq):
-        inside = q_sq < wca_range_sq
-        s6 = (sigma * sigma / jnp.where(inside, q_sq, wca_range_sq)) ** 3
-        return inside, s6
-
     def stiffness(q_sq):
-        inside, s6 = wca_parts(q_sq)
-        # −(dU_WCA/dQ)/Q = 24 ε (2 s¹² − s⁶)/Q² is a push: negative tension.
-        wca = jnp.where(inside, -24 * eps * (2 * s6 * s6 - s6) / q_sq, 0)
-        return _fene_stiffness(q_sq, k, r0) + wca
+        # The WCA force F/Q is a push: a negative tension.
+        return _fene_stiffness(q_sq, k, r0) - wca_force_over_distance(q_sq, eps, sigma)
 
     def energy(q_sq):
-        inside, s6 = wca_parts(q_sq)
-        wca = jnp.where(inside, 4 * eps * (s6 * s6 - s6 + 0.25), 0)
-        return _fene_energy(q_sq, k, r0) + wca
+        return _fene_energy(q_sq, k, r0) + wca_energy(q_sq, eps, sigma)
 
     lengths = [r0 * x / 1000 for x in range(1, 1000)]
     energies = [

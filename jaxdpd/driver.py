@@ -177,7 +177,9 @@ def run(
             if on_error is not None:
                 on_error(state, error)
             raise
-        series = reduce_samples(samples, scene.n_particles, scene.volume)
+        series = reduce_samples(
+            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
+        )
         if on_chunk is not None:
             on_chunk(ChunkResult(new_state, int(state.step), length, series))
         state = new_state

@@ -191,7 +191,9 @@ def run(
         length = min(chunk, steps - done)
         first = int(np.asarray(batch.step)[0])
         batch, samples = run_chunk(simulation, batch, length)
-        series = reduce_samples(samples, scene.n_particles, scene.volume)
+        series = reduce_samples(
+            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
+        )
         if on_chunk is not None:
             on_chunk(ChunkResult(batch, first, length, series))
         done += length

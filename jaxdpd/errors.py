@@ -9,6 +9,7 @@ NON_FINITE = 2
 TEMPERATURE_RUNAWAY = 4
 SPRING_OVERSTRETCHED = 8
 SPRING_PAST_HALF_BOX = 16
+FLUID_INVALID = 32
 
 # A kinetic temperature this many times the set value means the integration is
 # unstable (thermostatted DPD stays within a few per cent of it).
@@ -23,6 +24,12 @@ MESSAGES = {
         "a spring became longer than half a box edge, so its periodic image is "
         "ambiguous: enlarge the box, or use finitely extensible (FENE) springs with "
         "max_extension below half the shortest edge"
+    ),
+    FLUID_INVALID: (
+        "the lattice-Boltzmann fluid reached a non-positive or non-finite density or "
+        "velocity: the flow is too fast for the lattice (Mach number near 1) or the "
+        "noise too strong for the node mass; reduce solvent.time_step, raise "
+        "solvent.density or lower the forcing"
     ),
     NEIGHBOR_OVERFLOW: "neighbour list overflow (buffers too small)",
     NON_FINITE: (

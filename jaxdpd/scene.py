@@ -8,7 +8,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
 
     seed        integer in [0, 2³²)                     noise and initial state
     precision   "float32" | "float64"
-    cutoff      r_c > 0 of all pair interactions        default 1
+    cutoff      r_c > 0 of all pair interactions        default 1 (2^(1/6) σ for
+                pair.kind = "wca", which is the only value allowed then)
     [box]       kind = "periodic" | "lees_edwards" | "kraynik_reinelt" (follows from
                 [flow] when not given); lengths = [Lx, Ly, Lz] (optional, see
                 particles; a Kraynik–Reinelt box needs Lx = Lz)
@@ -29,24 +30,36 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 method = "lowe_andersen": kT > 0, collision_frequency Γ ≥ 0 (0 =
                 thermostat off; Γ · integrator.dt ≤ 1), thermalization_cutoff r_T > 0
                 (default: cutoff)
+                method = "lattice_boltzmann" (fluctuating D3Q19 fluid with friction-
+                coupled beads; the particles are the beads): kT ≥ 0 (0 = no
+                fluctuations), grid_spacing a > 0 (box edges whole multiples of it),
+                time_step τ > 0 (a whole multiple of integrator.dt), mass_density ρ > 0,
+                kinematic_viscosity ν > 0, kinematic_bulk_viscosity ν_b > 0 (default
+                ν), friction ζ > 0 (bare bead–fluid friction), noise = "uniform"|
+                "gaussian"; units are the scene's own (e.g. Lennard-Jones units)
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
                 {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen)
+                kind = "wca": epsilon > 0, sigma > 0 (Weeks–Chandler–Andersen,
+                cut-off 2^(1/6) σ)
     [[polymers]] species = name of a particle species whose particles are chained,
                 beads = beads per linear chain (≥ 2; the species count must be a
                 multiple, fractions are rounded to one); bond = {law, ...} with
                 law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
                 (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd and lowe_andersen solvents only
+                wca_sigma = 1); dpd, lowe_andersen and lattice_boltzmann solvents
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
-    [integrator] dt > 0 (default 1 for hoogerbrugge_koelman); lambda in [0, 1]
-                (not for lowe_andersen, whose forces do not depend on velocity)
-    [neighbors] method = "cell_list" | "jax_md"; format (jax_md) = "dense" |
+    [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
+                lattice_boltzmann); lambda in [0, 1] (dpd only: Lowe–Andersen and
+                lattice-Boltzmann steps have no velocity-dependent force to predict)
+    [neighbors] method = "cell_list" | "jax_md" | "all_pairs" (every pair, fixed: for
+                small systems such as one chain); format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation", "dynamics", "profile"}; rdf_bins,
+                "pressure", "rdf", "conformation", "dynamics", "profile"} (default
+                temperature and pressure; no pressure with lattice_boltzmann); rdf_bins,
                 rdf_max; profile_bins ≥ 1 (slabs along y);
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
                 samples of the "dynamics" correlators), correlator_levels ≥ 1;
@@ -70,11 +83,23 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen", "lattice_boltzmann")
 LOWE_ANDERSEN_KEYS = ("collision_frequency", "thermalization_cutoff")
+LATTICE_BOLTZMANN_FIELDS = (
+    "grid_spacing",
+    "time_step",
+    "mass_density",
+    "kinematic_viscosity",
+    "kinematic_bulk_viscosity",
+    "friction",
+)
+PAIR_KINDS = ("soft_repulsion", "wca")
+# Largest thermal Mach number² k_BT/(ρ a³ c_s²) of a lattice-Boltzmann node: beyond it
+# the density fluctuations (its square root) make negative densities likely.
+MAX_THERMAL_MACH_NUMBER_SQ = 0.1
 NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
-NEIGHBOR_METHODS = ("cell_list", "jax_md")
+NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
 BOX_KINDS = ("periodic", "lees_edwards", "kraynik_reinelt")
 FLOW_KINDS = ("shear", "planar_elongation")
@@ -148,6 +173,12 @@ class Solvent:
     delta_pi: float = 1.0 / 3.0
     collision_frequency: float = 0.0
     thermalization_cutoff: float | None = None
+    grid_spacing: float = 1.0
+    time_step: float = 1.0
+    mass_density: float = 1.0
+    kinematic_viscosity: float = 1.0
+    kinematic_bulk_viscosity: float = 1.0
+    friction: float = 1.0
 
     @property
     def sigma(self) -> float:
@@ -157,10 +188,13 @@ class Solvent:
 
 @dataclass(frozen=True)
 class Pair:
-    """Conservative pair force: soft repulsion with species matrix a (S×S)."""
+    """Conservative pair force: soft repulsion with species matrix a (S×S), or the
+    WCA repulsion with epsilon and sigma (the same for all pairs)."""
 
     kind: str
-    a: tuple[tuple[float, ...], ...]
+    a: tuple[tuple[float, ...], ...] = ()
+    epsilon: float = 1.0
+    sigma: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -323,6 +357,9 @@ class Scene:
             if isinstance(entry.get("species"), str) and isinstance(entry.get("beads"), int)
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
+        pair = _read_pair(data.get("pair"), solvent, particles.species)
+        if pair is not None and pair.kind == "wca":
+            cutoff = _wca_cutoff(data, pair)
         range_name, pair_range = _pair_range(cutoff, solvent)
         list_cutoff = pair_range + neighbors.skin
         heights = make_box(box_kind, lengths, flow).cell_heights
@@ -341,15 +378,16 @@ class Scene:
                 "particles.species[].mass: the Hoogerbrugge–Koelman update is written for "
                 "unit masses; remove the masses or use solvent.method = 'dpd'"
             )
-        pair = _read_pair(data.get("pair"), solvent, particles.species)
         integrator = _read_integrator(data.get("integrator"), solvent)
         _check_collision_probability(solvent, integrator)
+        if solvent.method == "lattice_boltzmann":
+            _check_lattice(solvent, lengths, integrator)
         # Springs must stay shorter than half the box for their minimum image to be
         # unique: half the shortest edge, or half the thinnest Kraynik–Reinelt cell.
         spring_room = min(heights) if box_kind == "kraynik_reinelt" else min(lengths)
         polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), heights, run.chunk)
+        output = _read_output(data.get("output", {}), heights, run.chunk, solvent)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
@@ -390,6 +428,13 @@ class Scene:
         return math.prod(self.box.lengths)
 
     @property
+    def particle_momentum_conserved(self) -> bool:
+        """Whether the particles' total momentum is constant (False for beads that
+        exchange momentum with a lattice-Boltzmann fluid): 3N − 3 or 3N kinetic
+        degrees of freedom."""
+        return self.solvent.method != "lattice_boltzmann"
+
+    @property
     def species_names(self) -> tuple[str, ...]:
         """Species names in index order."""
         return tuple(s.name for s in self.particles.species)
@@ -398,7 +443,7 @@ class Scene:
         """The full resolved scene as plain data; `from_dict` reloads it unchanged."""
         data = asdict(self)
         data["integrator"]["lambda"] = data["integrator"].pop("lambda_")
-        if self.solvent.method == "lowe_andersen":
+        if self.solvent.method in ("lowe_andersen", "lattice_boltzmann"):
             del data["integrator"]["lambda"]
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
@@ -410,6 +455,8 @@ class Scene:
         data["solvent"] = _solvent_dict(self.solvent)
         if self.pair is None:
             del data["pair"]
+        elif self.pair.kind == "wca":
+            data["pair"] = {"kind": "wca", "epsilon": self.pair.epsilon, "sigma": self.pair.sigma}
         else:
             data["pair"] = {"kind": self.pair.kind, "a": [list(row) for row in self.pair.a]}
         data["polymers"] = [
@@ -433,6 +480,8 @@ class Scene:
             }
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
+        if self.neighbors.method == "all_pairs":
+            del data["neighbors"]["skin"]
         data["output"]["observables"] = list(self.output.observables)
         if self.output.path is None:
             del data["output"]["path"]
@@ -457,6 +506,9 @@ class Scene:
 
 
 def _solvent_dict(solvent: Solvent) -> dict:
+    if solvent.method == "lattice_boltzmann":
+        fields = {name: getattr(solvent, name) for name in LATTICE_BOLTZMANN_FIELDS}
+        return {"method": solvent.method, "kT": solvent.kT, "noise": solvent.noise, **fields}
     if solvent.method == "dpd":
         return {
             "method": "dpd",
@@ -484,16 +536,32 @@ def _solvent_dict(solvent: Solvent) -> dict:
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        ("method", "kT", "gamma", "sigma", "noise", "pi0", "omega", "delta_pi")
-        + LOWE_ANDERSEN_KEYS,
+        (
+            "method",
+            "kT",
+            "gamma",
+            "sigma",
+            "noise",
+            "pi0",
+            "omega",
+            "delta_pi",
+            *LOWE_ANDERSEN_KEYS,
+            *LATTICE_BOLTZMANN_FIELDS,
+        ),
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
     if method == "lowe_andersen":
         return _read_lowe_andersen(section)
-    misplaced = sorted(set(LOWE_ANDERSEN_KEYS) & set(section))
-    if misplaced:
-        raise ValueError(f"solvent: {misplaced} belong to method 'lowe_andersen', not {method!r}")
+    if method == "lattice_boltzmann":
+        return _read_lattice_boltzmann(section)
+    for owner, keys in (
+        ("lowe_andersen", LOWE_ANDERSEN_KEYS),
+        ("lattice_boltzmann", LATTICE_BOLTZMANN_FIELDS),
+    ):
+        misplaced = sorted(set(keys) & set(section))
+        if misplaced:
+            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
     if method == "dpd":
         misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
         if misplaced:
@@ -567,6 +635,63 @@ def _check_collision_probability(solvent: Solvent, integrator: Integrator) -> No
         )
 
 
+def _read_lattice_boltzmann(section) -> Solvent:
+    """The fields of solvent.method = "lattice_boltzmann" (see the module docstring)."""
+    misplaced = sorted({"gamma", "sigma", "pi0", "omega", "delta_pi"} & set(section))
+    if misplaced:
+        raise ValueError(f"solvent: {misplaced} are not fields of method 'lattice_boltzmann'")
+    positive = {"minimum": 0, "exclusive_minimum": True}
+    fields = {
+        name: read_number(section, name, "solvent", **positive)
+        for name in (
+            "grid_spacing",
+            "time_step",
+            "mass_density",
+            "kinematic_viscosity",
+            "friction",
+        )
+    }
+    fields["kinematic_bulk_viscosity"] = read_number(
+        section, "kinematic_bulk_viscosity", "solvent", fields["kinematic_viscosity"], **positive
+    )
+    kT = read_number(section, "kT", "solvent", 1.0, minimum=0)
+    noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
+    a, tau, rho = fields["grid_spacing"], fields["time_step"], fields["mass_density"]
+    mach_sq = 3 * kT * tau * tau / (rho * a**5)
+    if mach_sq > MAX_THERMAL_MACH_NUMBER_SQ:
+        raise ValueError(
+            f"solvent: the thermal Mach number² kT/(mass_density a³ c_s²) = {mach_sq:.3g} "
+            f"(c_s² = a²/(3 τ²)) exceeds {MAX_THERMAL_MACH_NUMBER_SQ}: node densities would "
+            "fluctuate by more than a third and turn negative; reduce time_step or kT, or "
+            "raise mass_density or grid_spacing"
+        )
+    return Solvent("lattice_boltzmann", kT=kT, noise=noise, **fields)
+
+
+def lattice_nodes(lengths, grid_spacing: float) -> tuple[int, int, int]:
+    """Nodes per box edge, n_α = L_α/a (whole numbers, checked by the scene)."""
+    return tuple(round(length / grid_spacing) for length in lengths)
+
+
+def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
+    """Box edges whole multiples of the grid spacing, τ a whole multiple of Δt."""
+    a = solvent.grid_spacing
+    for axis, (length, n) in enumerate(zip(lengths, lattice_nodes(lengths, a), strict=True)):
+        if n < 1 or not math.isclose(n * a, length, rel_tol=1e-9):
+            raise ValueError(
+                f"box.lengths: L_{'xyz'[axis]} = {length:.6g} is not a whole number of "
+                f"solvent.grid_spacing = {a:.6g}; make every edge n a (e.g. "
+                f"{max(1, n) * a:.6g})"
+            )
+    substeps = round(solvent.time_step / integrator.dt)
+    if substeps < 1 or not math.isclose(substeps * integrator.dt, solvent.time_step, rel_tol=1e-9):
+        raise ValueError(
+            f"solvent.time_step = {solvent.time_step:.6g}: the LB time step must be a whole "
+            f"number n ≥ 1 of MD steps integrator.dt = {integrator.dt:.6g} (e.g. "
+            f"{max(1, substeps) * integrator.dt:.6g})"
+        )
+
+
 def _kind(flow: Flow | None) -> str | None:
     return None if flow is None else flow.kind
 
@@ -589,8 +714,9 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
         )
     if neighbors.method != "cell_list":
         raise ValueError(
-            "neighbors.method = 'jax_md': jax-md's lists know no Lees–Edwards or "
-            "Kraynik–Reinelt boundary; use neighbors.method = 'cell_list' with a [flow]"
+            f"neighbors.method = {neighbors.method!r}: only the cell list knows the "
+            "Lees–Edwards and Kraynik–Reinelt boundaries; use neighbors.method = "
+            "'cell_list' with a [flow]"
         )
     if kind == "planar_elongation":
         return Flow(
@@ -626,8 +752,10 @@ def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
 def _read_neighbors(section) -> Neighbors:
     check_keys(section, ("method", "format", "skin", "capacity_multiplier"), "neighbors")
     method = read_choice(section, "method", "neighbors", NEIGHBOR_METHODS, "cell_list")
-    if method == "cell_list" and "format" in section:
+    if method != "jax_md" and "format" in section:
         raise ValueError("neighbors.format: only used with neighbors.method = 'jax_md'")
+    if method == "all_pairs" and "skin" in section:
+        raise ValueError("neighbors.skin: the all_pairs list is never rebuilt; remove skin")
     return Neighbors(
         method=method,
         format=read_choice(section, "format", "neighbors", JAX_MD_FORMATS, "ordered_sparse"),
@@ -744,8 +872,20 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
             "pair: the Hoogerbrugge–Koelman update carries its own conservative part "
             "(solvent.pi0); remove the [pair] section"
         )
-    check_keys(section, ("kind", "a"), "pair")
-    kind = read_choice(section, "kind", "pair", ("soft_repulsion",), "soft_repulsion")
+    check_keys(section, ("kind", "a", "epsilon", "sigma"), "pair")
+    kind = read_choice(section, "kind", "pair", PAIR_KINDS, "soft_repulsion")
+    if kind == "wca":
+        if "a" in section:
+            raise ValueError("pair.a: belongs to kind 'soft_repulsion'; 'wca' takes epsilon, sigma")
+        positive = {"minimum": 0, "exclusive_minimum": True}
+        return Pair(
+            kind,
+            epsilon=read_number(section, "epsilon", "pair", **positive),
+            sigma=read_number(section, "sigma", "pair", **positive),
+        )
+    misplaced = sorted({"epsilon", "sigma"} & set(section))
+    if misplaced:
+        raise ValueError(f"pair: {misplaced} belong to kind 'wca', not 'soft_repulsion'")
     names = [s.name for s in species]
     n = len(names)
     if "a" not in section:
@@ -790,6 +930,17 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
     return Pair(kind, tuple(tuple(row) for row in matrix))
 
 
+def _wca_cutoff(data: dict, pair: Pair) -> float:
+    """The cut-off of a WCA scene: 2^(1/6) σ; a given `cutoff` must equal it."""
+    wca_range = 2 ** (1 / 6) * pair.sigma
+    if "cutoff" in data and not math.isclose(data["cutoff"], wca_range, rel_tol=1e-9):
+        raise ValueError(
+            f"cutoff = {data['cutoff']!r}: with pair.kind = 'wca' the cut-off is the WCA "
+            f"range 2^(1/6) sigma = {wca_range:.6g}; remove cutoff"
+        )
+    return wca_range
+
+
 BOND_PARAMETERS = {
     "hookean": {"spring_constant": REQUIRED},
     "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
@@ -816,10 +967,10 @@ def _polymer_entries(entries) -> list:
 
 
 def _read_polymers(entries: list, species, solvent: Solvent, spring_room) -> tuple[Polymer, ...]:
-    if entries and solvent.method not in ("dpd", "lowe_andersen"):
+    if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann"):
         raise ValueError(
-            "polymers: bead-spring chains need solvent.method = 'dpd' or 'lowe_andersen' "
-            f"(got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen' or "
+            f"'lattice_boltzmann' (got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -884,7 +1035,14 @@ def _read_integrator(section, solvent: Solvent) -> Integrator:
             "integrator.lambda: the Lowe–Andersen step has no velocity-dependent force, so "
             "the λ of Groot and Warren's modified velocity Verlet plays no role; remove it"
         )
-    default_dt = 1.0 if solvent.method == "hoogerbrugge_koelman" else 0.04
+    if solvent.method == "lattice_boltzmann" and "lambda" in section:
+        raise ValueError(
+            "integrator.lambda: the beads in a lattice-Boltzmann solvent move by velocity "
+            "Verlet around the friction step (no λ); remove it"
+        )
+    default_dt = {"hoogerbrugge_koelman": 1.0, "lattice_boltzmann": solvent.time_step}.get(
+        solvent.method, 0.04
+    )
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
     return Integrator(dt=dt, lambda_=lam)
@@ -899,7 +1057,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, heights, chunk: int) -> Output:
+def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
     check_keys(
         section,
         (
@@ -915,7 +1073,14 @@ def _read_output(section, heights, chunk: int) -> Output:
         ),
         "output",
     )
-    observables = read_list(section, "observables", "output", ["temperature", "pressure"])
+    lattice = solvent.method == "lattice_boltzmann"
+    default = ["temperature"] if lattice else ["temperature", "pressure"]
+    observables = read_list(section, "observables", "output", default)
+    if lattice and "pressure" in observables:
+        raise ValueError(
+            "output.observables: 'pressure' of a lattice-Boltzmann scene would need the "
+            "fluid's stress, which is not measured; remove it"
+        )
     for name in observables:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")

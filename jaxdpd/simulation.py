@@ -4,7 +4,10 @@ Nothing the scene does not ask for is traced: without a [pair] section there is 
 conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
 Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
 kernel, without [body_force] no external force, with no pair term or thermostat at
-all no neighbour search, and in a box at rest (no [flow]) no flow arithmetic.
+all no neighbour search, and in a box at rest (no [flow]) no flow arithmetic.  With
+solvent.method = "lattice_boltzmann" the particles are beads coupled by friction to
+a lattice-Boltzmann fluid kept in SimState.solvent_state (jaxdpd.lattice_boltzmann);
+with its k_BT = 0 no noise is traced.
 """
 
 import functools
@@ -23,6 +26,8 @@ from jaxdpd.integrators import (
     modified_velocity_verlet,
     thermalized_velocity_verlet,
 )
+from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
+from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
 from jaxdpd.observables.chain_correlators import (
     init_chain_correlators,
@@ -32,7 +37,7 @@ from jaxdpd.observables.chain_correlators import (
 from jaxdpd.observables.chain_series import conformation_samples
 from jaxdpd.observables.profiles import profile_samples
 from jaxdpd.observables.thermo import step_samples
-from jaxdpd.pairs import soft_repulsion_term
+from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
@@ -89,7 +94,9 @@ def pair_terms(scene: Scene, dtype) -> list:
     """The pair laws the scene names, in the order they are summed."""
     terms = []
     solvent = scene.solvent
-    if scene.pair is not None:
+    if scene.pair is not None and scene.pair.kind == "wca":
+        terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
+    elif scene.pair is not None:
         terms.append(soft_repulsion_term(scene.pair.a, dtype))
     if solvent.method == "dpd" and solvent.gamma > 0:
         terms.append(
@@ -208,6 +215,7 @@ def build(scene: Scene) -> Simulation:
             )
         return vectors, virial, pair_list, bits
 
+    fluid = None
     if scene.solvent.method == "hoogerbrugge_koelman":
         advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
     elif bath_cutoff is not None:
@@ -238,6 +246,19 @@ def build(scene: Scene) -> Simulation:
             dtype,
             masses,
             with_virial,
+        )
+    elif scene.solvent.method == "lattice_boltzmann":
+        fluid = fluid_parameters(scene)
+        advance = coupled_step(
+            box,
+            scene.integrator.dt,
+            md_steps_per_lattice_step(scene),
+            interactions,
+            fluid,
+            scene.solvent.friction,
+            dtype,
+            masses,
+            scene.solvent.noise,
         )
     else:
         advance = modified_velocity_verlet(
@@ -312,12 +333,14 @@ def build(scene: Scene) -> Simulation:
             parts = {**parts, "impulse": jax.ShapeDtypeStruct((3, 3), dtype)}
         state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
         state = init_observers(state)
-        if scene.solvent.method in ("dpd", "lowe_andersen"):
+        if scene.solvent.method != "hoogerbrugge_koelman":
             forces, virial, pair_list, bits = jax.jit(interactions)(positions, velocities, state)
             virial = {**state.virial, **virial}  # keeps the thermostat's "impulse" zeros
             state = state.set(forces=forces, virial=virial, pair_list=pair_list, flags=bits)
         if bath_cutoff is not None:
             state = state.set(solvent_state=empty_record(dtype))
+        if fluid is not None:
+            state = state.set(solvent_state=initial_fluid_state(fluid, scene.seed, dtype))
         return state
 
     def reallocate(state, minimum):

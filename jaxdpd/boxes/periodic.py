@@ -138,11 +138,15 @@ class PeriodicBox:
 
 
 def fold_edge(wrapped, crossings, lengths):
-    """Fold coordinates that round-off left exactly at L back to 0, and count that
-    crossing too (a tiny negative coordinate wraps to L in floating point).
+    """Fold coordinates that round-off left outside [0, L) back in, and count the fold
+    as a crossing: a tiny negative coordinate wraps to L in floating point, and a
+    coordinate just below a multiple of L can round r/L up to an integer, leaving a
+    tiny negative remainder.
 
     Returns:
         (wrapped in [0, L), crossings).
     """
-    at_edge = wrapped >= lengths
-    return jnp.where(at_edge, wrapped - lengths, wrapped), crossings + at_edge
+    below = wrapped < 0
+    wrapped = jnp.where(below, wrapped + lengths, wrapped)
+    above = wrapped >= lengths
+    return jnp.where(above, wrapped - lengths, wrapped), crossings - below + above

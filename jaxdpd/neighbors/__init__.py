@@ -5,6 +5,7 @@ Two backends produce the same `PairList`:
   more than half the skin.  Fast on CPU (see benchmarks/dpd_throughput.py).
 - `jax_md`: `jax_md.partition.neighbor_list` in its dense, sparse or ordered-sparse
   format, adapted to the same pair arrays.
+- `all_pairs`: every pair i < j, fixed (small systems such as a single chain).
 
 Pair arrays hold particle indices; unused slots hold N (one past the last particle).
 A half list holds each pair once; a full list holds (i, j) and (j, i).

@@ -9,7 +9,8 @@ pair is found exactly once.  The neighbour blocks are whole-grid rolls, and the
 distance tests are dense element-wise arithmetic on (slot, cell) planes: XLA's CPU
 backend runs these far faster than per-particle gathers of candidates.  Each test
 result is packed into 32-bit words, one bit per candidate slot, and the accepted pairs
-are compacted into flat (i, j) arrays by branch-free binary searches over popcounts.
+are compacted into flat (i, j) arrays with prefix sums over popcounts, one scatter
+and a cumulative maximum (O(N + capacity), no per-pair search over the rows).
 
 Axes with fewer than three cells fall back to a single cell along that axis (every
 particle is a candidate along it, measured by the minimum image in the frame, which
@@ -21,6 +22,7 @@ import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdpd.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
 
@@ -98,6 +100,10 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
     return jnp.where(slots < counts[None, :], gathered, n), slot, jnp.max(counts)
 
 
+# Size (offsets × slots × cells) up to which all stencil offsets are tested at once.
+_SMALL_GRID_ELEMENTS = 1 << 18
+
+
 def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
     """Distance tests of every (slot, cell) against the slots of its stencil cells.
 
@@ -122,52 +128,73 @@ def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
     coordinates = [
         jnp.where(empty, jnp.asarray(jnp.nan, dtype), frame[:, axis][safe]) for axis in range(3)
     ]
-    groups = math.ceil(cell_capacity / WORD_BITS)
     limit = jnp.asarray(list_cutoff**2, dtype)
-    slot_index = jnp.arange(cell_capacity).reshape((-1, 1, 1, 1))
+    groups = math.ceil(cell_capacity / WORD_BITS)
+    slot_index = np.arange(cell_capacity)
+    # Small grids test all offsets in one batch (a few large fused loops instead of
+    # many tiny ones: dispatch, not arithmetic, bounds small systems); large grids
+    # test one offset at a time (measured: intermediate batches run slower than both).
+    small = len(offsets) * members.size <= _SMALL_GRID_ELEMENTS
+    batch_size = len(offsets) if small else 1
     words = []
-    for offset in offsets:
-        shift = tuple(-o for o in offset)
-        rolled = []
-        for axis in range(3):
-            neighbor = jnp.roll(coordinates[axis], shift, axis=(1, 2, 3))
-            if offset[axis] != 0:
-                # Cells whose neighbour wrapped around see it one box length away.
-                edge = n_cells[axis] - 1 if offset[axis] > 0 else 0
-                index = jnp.arange(n_cells[axis]).reshape(
-                    [n_cells[axis] if a == axis else 1 for a in range(3)]
-                )
-                image = jnp.where(index == edge, offset[axis] * lengths[axis], 0.0)
-                neighbor = neighbor + image.astype(dtype)[None]
-            rolled.append(neighbor)
-        group_words = [jnp.zeros(grid_shape, jnp.uint32) for _ in range(groups)]
+    for first in range(0, len(offsets), batch_size):
+        batch = offsets[first : first + batch_size]
+        rolled = [
+            jnp.stack(r)
+            for r in zip(*(_rolled(coordinates, o, n_cells, lengths) for o in batch), strict=True)
+        ]
+        # Within the own cell (offset 0) only slot pairs i < j count.
+        is_own = np.array([offset == (0, 0, 0) for offset in batch])[:, None, None]
+        counted = ~is_own | (slot_index[:, None] < slot_index[None, :])[None]
+        batch_words = [jnp.zeros((len(batch),) + grid_shape, jnp.uint32) for _ in range(groups)]
         for j in range(cell_capacity):
+            # Slot j of each neighbour cell against all slots of the own cell.
             separation = []
             for axis in range(3):
-                component = coordinates[axis] - rolled[axis][j][None]
+                component = coordinates[axis][None] - rolled[axis][:, j, None]
                 if n_cells[axis] == 1:
                     length = jnp.asarray(lengths[axis], dtype)
                     component = component - length * jnp.round(component / length)
                 separation.append(component)
             separation = bound_box.frame_to_cartesian(tuple(separation))
             distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
-            within = distance_sq < limit
-            if offset == (0, 0, 0):
-                within = within & (slot_index < j)
-            bit = jnp.uint32(j % WORD_BITS)
-            group_words[j // WORD_BITS] = group_words[j // WORD_BITS] | (
-                within.astype(jnp.uint32) << bit
+            within = (distance_sq < limit) & counted[:, :, j, None, None, None]
+            group, bit = divmod(j, WORD_BITS)
+            batch_words[group] = batch_words[group] | (within.astype(jnp.uint32) << jnp.uint32(bit))
+        # (batch, groups, slots, grid): word index offset · groups + group.
+        words.append(jnp.stack(batch_words, axis=1).reshape((-1, cell_capacity) + n_cells))
+    return jnp.concatenate(words).reshape(len(offsets) * groups, cell_capacity, -1)
+
+
+def _rolled(coordinates, offset, n_cells, lengths):
+    """Coordinates of the slots of each cell's neighbour (cell + offset), per axis.
+
+    Cells whose neighbour wrapped around the grid see it one box length away.
+    """
+    rolled = []
+    for axis in range(3):
+        neighbor = jnp.roll(coordinates[axis], tuple(-o for o in offset), axis=(1, 2, 3))
+        if offset[axis] != 0:
+            edge = n_cells[axis] - 1 if offset[axis] > 0 else 0
+            index = jnp.arange(n_cells[axis]).reshape(
+                [n_cells[axis] if a == axis else 1 for a in range(3)]
             )
-        words.extend(group_words)
-    return jnp.stack(words).reshape(len(words), cell_capacity, -1)
+            image = jnp.where(index == edge, offset[axis] * lengths[axis], 0.0)
+            neighbor = neighbor + image.astype(neighbor.dtype)[None]
+        rolled.append(neighbor)
+    return rolled
 
 
 def _compact(accepted, pair_capacity: int):
     """Locate the set bits of `accepted` (words × rows) in row-major order.
 
-    Pair slot p is found by three binary searches: its row (over cumulative counts
-    of the rows), its word (over the row's cumulative word counts) and its bit (over
-    popcounts of bit prefixes).
+    Every (row, word) entry owns a run of output slots as long as its popcount,
+    starting at the exclusive prefix sum of the popcounts in row-major order.  Each
+    non-empty entry writes its index at its start slot, and a cumulative maximum
+    carries it over the run: slot p belongs to the last entry starting at or before
+    it.  The bit is then the rank-th set bit of that entry's word, found by a
+    five-step binary search over popcounts of bit prefixes (register arithmetic).
+    Everything is O(entries + capacity), with no search over the rows.
 
     Returns:
         row, word, bit: (pair_capacity,) int32 locations.
@@ -175,27 +202,26 @@ def _compact(accepted, pair_capacity: int):
         total: int32 number of set bits (may exceed the capacity).
     """
     words, rows = accepted.shape
-    per_word = jax.lax.population_count(accepted).astype(jnp.int32)
-    word_inclusive = jnp.cumsum(per_word, axis=0, dtype=jnp.int32)
-    per_row = word_inclusive[-1]
-    row_inclusive = jnp.cumsum(per_row, dtype=jnp.int32)
-    total = row_inclusive[-1]
+    entries = accepted.T.reshape(-1)  # row-major: entry e = row · words + word
+    counts = jax.lax.population_count(entries).astype(jnp.int32)
+    inclusive = jnp.cumsum(counts, dtype=jnp.int32)
+    starts = inclusive - counts
+    total = inclusive[-1]
+    index = jnp.arange(entries.shape[0], dtype=jnp.int32)
+    # Empty entries and runs beyond the capacity write nowhere (index dropped).
+    target = jnp.where((counts > 0) & (starts < pair_capacity), starts, pair_capacity)
+    owner = jnp.zeros(pair_capacity, jnp.int32).at[target].max(index, mode="drop")
+    owner = jax.lax.cummax(owner)
     slots = jnp.arange(pair_capacity, dtype=jnp.int32)
-    row = jnp.minimum(_lower_bound(lambda k: row_inclusive[k], rows, slots + 1), rows - 1)
-    rank = slots - (row_inclusive[row] - per_row[row])
-    flat_inclusive = word_inclusive.reshape(-1)
-    word = _lower_bound(lambda k: flat_inclusive[k * rows + row], words, rank + 1)
-    word = jnp.minimum(word, words - 1)
-    flat = word * rows + row
-    rank = rank - (flat_inclusive[flat] - per_word.reshape(-1)[flat])
-    bits = accepted.reshape(-1)[flat]
+    rank = slots - starts[owner]
+    bits = entries[owner]
 
     def set_bits_up_to(k):
         prefix = (jnp.uint32(2) << k.astype(jnp.uint32)) - jnp.uint32(1)
         return jax.lax.population_count(bits & prefix).astype(jnp.int32)
 
     bit = jnp.minimum(_lower_bound(set_bits_up_to, WORD_BITS, rank + 1), WORD_BITS - 1)
-    return row, word, bit, slots < total, total
+    return owner // words, owner % words, bit, slots < total, total
 
 
 def cell_list_search(box, n_particles: int, cutoff: float, skin: float):

@@ -99,7 +99,8 @@ def neighbor_search(
         n_particles: N.
         cutoff: interaction cut-off r_c.
         skin: Verlet skin (≥ 0); pairs within cutoff + skin are listed.
-        method: "cell_list" (jaxdpd's own) or "jax_md".
+        method: "cell_list" (jaxdpd's own), "jax_md", or "all_pairs" (every pair,
+            for small systems).
         jax_md_format: "dense", "sparse" or "ordered_sparse" (method "jax_md" only).
     """
     if method == "cell_list":
@@ -110,4 +111,8 @@ def neighbor_search(
         from jaxdpd.neighbors.jax_md_lists import jax_md_search
 
         return jax_md_search(box, n_particles, cutoff, skin, jax_md_format)
-    raise ValueError(f"neighbors.method = {method!r}; valid: 'cell_list', 'jax_md'")
+    if method == "all_pairs":
+        from jaxdpd.neighbors.all_pairs import all_pairs_search
+
+        return all_pairs_search(n_particles, cutoff)
+    raise ValueError(f"neighbors.method = {method!r}; valid: 'cell_list', 'jax_md', 'all_pairs'")

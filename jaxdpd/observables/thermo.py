@@ -1,7 +1,9 @@
 """Kinetic temperature and the virial pressure tensor.
 
     k_BT = Σ_i m_i v_i² / (3 (N − 1))          (3N − 3 degrees of freedom: the total
-                                              momentum is conserved)
+                                              momentum is conserved; 3N for particles
+                                              that exchange momentum with a lattice
+                                              fluid)
     P_ab = [Σ_i m_i v_ia v_ib + Σ_pairs (r_i − r_j)_a F_ij,b] / V
 
 (Irving–Kirkwood virial form, thesis eqs. 3.46–3.49 with the sign of a pressure,
@@ -19,10 +21,11 @@ def kinetic_tensor(velocities, masses=None):
     return (masses[:, None] * velocities).T @ velocities
 
 
-def temperature(kinetic, n_particles: int):
-    """k_BT from kinetic tensor(s) of shape (..., 3, 3)."""
+def temperature(kinetic, n_particles: int, momentum_conserved: bool = True):
+    """k_BT from kinetic tensor(s) of shape (..., 3, 3); `momentum_conserved` False
+    when the particles' total momentum is not a constant (beads in a lattice fluid)."""
     trace = np.trace(np.asarray(kinetic), axis1=-2, axis2=-1)
-    return trace / (3 * (n_particles - 1))
+    return trace / (3 * (n_particles - 1 if momentum_conserved else n_particles))
 
 
 def scalar_pressure(tensor):
@@ -40,11 +43,14 @@ def step_samples(observables, state, masses=None):
     return samples
 
 
-def reduce_samples(samples: dict, n_particles: int, volume: float) -> dict:
+def reduce_samples(
+    samples: dict, n_particles: int, volume: float, momentum_conserved: bool = True
+) -> dict:
     """Per-step kinetic tensors and virial parts → named time series (NumPy, host
     side); other samples (already named series, e.g. conformation) pass through.
 
-    Series: "temperature"; "pressure_tensor" (total), "pressure" (its trace / 3) and
+    Series: "temperature" (`momentum_conserved` as in `temperature`);
+    "pressure_tensor" (total), "pressure" (its trace / 3) and
     "pressure_tensor_part/<part>" for "kinetic" and each virial part the step recorded
     ("conservative", "dissipative", "random", "bond", ...: thesis eqs. 3.46–3.49
     with the sign of a pressure, σ = −P).
@@ -52,7 +58,7 @@ def reduce_samples(samples: dict, n_particles: int, volume: float) -> dict:
     passed = ("kinetic", "virial")
     series = {name: values for name, values in samples.items() if name not in passed}
     if "kinetic" in samples:
-        series["temperature"] = temperature(samples["kinetic"], n_particles)
+        series["temperature"] = temperature(samples["kinetic"], n_particles, momentum_conserved)
     if "virial" in samples:
         kinetic = np.asarray(samples["kinetic"])
         series["pressure_tensor_part/kinetic"] = kinetic / volume
