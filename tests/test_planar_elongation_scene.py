@@ -73,8 +73,8 @@ def test_springs_must_fit_the_thinnest_kraynik_reinelt_cell():
         ],
     )
     data["particles"] = {
-        "density": 3.0,
-        "species": [{"name": "solvent", "fraction": 0.9}, {"name": "chain", "fraction": 0.1}],
+        "count": 432,
+        "species": [{"name": "solvent", "count": 392}, {"name": "chain", "count": 40}],
     }
     with pytest.raises(ValueError, match="max_extension = 2.5"):
         Scene.from_dict(data)
