@@ -322,3 +322,23 @@ def test_skin_criterion_never_misses_a_pair_while_the_lattice_deforms():
         if 2 * float(jnp.max(jnp.linalg.norm(displaced, axis=1))) <= skin:
             missed_without_drift += not close <= listed
     assert kept >= 10 and missed_without_drift >= 1, (kept, missed_without_drift)
+
+
+@pytest.mark.parametrize("strain", [-0.4, 0.0, 0.3])
+def test_h5md_edges_are_the_current_lattice(strain):
+    """The H5MD `edges` of a Kraynik–Reinelt box (jaxdpd.io.h5md.box_edges) are three
+    rows spanning the flowing lattice: the x–z rows are an integer unimodular change
+    of the thesis basis F(ε) A0, the y row is (0, L_y, 0), and |det| is the conserved
+    volume L² L_y."""
+    from jaxdpd.io.h5md import box_edges
+
+    box = KraynikReineltBox(LENGTHS, 0.1, 1)
+    edges = box_edges(box.bind(state_at(box, strain)))
+    assert edges.shape == (3, 3) and edges.dtype == np.float64
+    np.testing.assert_allclose(edges[1], [0.0, LENGTHS[1], 0.0], atol=1e-12)
+    in_plane = edges[[0, 2]][:, [0, 2]].T  # columns: the two x–z lattice vectors
+    np.testing.assert_allclose(edges[[0, 2], 1], 0.0, atol=1e-12)
+    change = np.linalg.solve(thesis_lattice(1, LENGTHS[0], strain), in_plane)
+    np.testing.assert_allclose(change, np.round(change), atol=1e-9)
+    assert abs(round(np.linalg.det(change))) == 1
+    assert math.isclose(abs(np.linalg.det(edges)), box.volume, rel_tol=1e-12)

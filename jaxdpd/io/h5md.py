@@ -9,7 +9,8 @@ Layout written:
          box                    dimension = 3, boundary = periodic ×3
               edges/{step,time,value (T, 3)}     sampled with the positions (T, 3, 3
                                                  lattice vectors in Lees–Edwards
-                                                 shear, see box_edges), or the fixed
+                                                 shear and Kraynik–Reinelt planar
+                                                 elongation, see box_edges), or the fixed
                                                  (3,) edge lengths without frames
          species                (N,) HDF5 enumeration: species index → name
          position/{step,time,value (T, N, 3)}    every output.trajectory_every
