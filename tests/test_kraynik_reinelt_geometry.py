@@ -15,14 +15,15 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+# The cell list's pairs within the cut-off, as the Lees–Edwards tests collect them.
+from test_lees_edwards_geometry import CUTOFF, listed_pairs
+
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.boxes import KraynikReineltBox
 from jaxdpd.boxes.kraynik_reinelt_lattice import kraynik_reinelt_case, stretch
 from jaxdpd.neighbors.cell_list import cell_list_search
-from jaxdpd.pairwise import pair_geometry
 
 LENGTHS = (6.0, 4.0, 6.0)
-CUTOFF = 1.0
 N = 300
 # Thesis table 3.27: (ε_p, θ) as printed.
 TABLE_3_27 = {
@@ -60,22 +61,6 @@ def brute_force_pairs(positions, case, strain, cutoff):
     assert not np.any(edge[best[close]]), "widen the image search"
     vectors = images[rows, best][close]
     return {(int(a), int(b)): v for a, b, v in zip(i[close], j[close], vectors, strict=True)}
-
-
-def listed_pairs(box, search, positions, box_state):
-    """{(i, j): separation} of the cell list's pairs within the cut-off."""
-    pair_list = search.allocate(positions, 1.5, box_state=box_state)
-    assert not bool(pair_list.overflow)
-    geometry = pair_geometry(box.bind(box_state), positions, pair_list, CUTOFF, half=True)
-    within = np.asarray(geometry.within)
-    i, j = np.asarray(geometry.i)[within], np.asarray(geometry.j)[within]
-    vectors = np.stack([np.asarray(s)[within] for s in geometry.separation], axis=1)
-    pairs = {}
-    for a, b, vector in zip(i, j, vectors, strict=True):
-        key, sign = ((int(a), int(b)), 1) if a < b else ((int(b), int(a)), -1)
-        assert key not in pairs, f"pair {key} listed twice"
-        pairs[key] = sign * vector
-    return pairs
 
 
 def state_at(box, strain, dtype=jnp.float64):

@@ -230,13 +230,6 @@ class BoundKraynikReinelt:
     current_elongation_rate: jnp.ndarray
 
     @property
-    def volume(self) -> float:
-        return math.prod(self.lengths)
-
-    def lengths_array(self, dtype):
-        return jnp.asarray(self.lengths, dtype)
-
-    @property
     def lattice_vectors(self):
         """(3, 3) the lattice vectors of frame axes 0, 1, 2 as columns."""
         zero = jnp.zeros((), self.lattice.dtype)
