@@ -5,6 +5,9 @@ For each chain block (species) the step records, averaged over its chains:
                                                                   FENE dumbbells)
     <species>/end_to_end_sq       ⟨R_e²⟩, R_e = r_M − r_1         (chains of M > 2)
     <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (M > 2)
+    <species>/fractional_extension ⟨|R_e|⟩/((M − 1) Q_0)           (finitely extensible
+                                                                  springs; thesis
+                                                                  ch. 5, "Extension")
 Chains are reconstructed in one piece across periodic boundaries (thesis §3.2.4).
 `ideal_references` gives the values these would take without pair forces.
 """
@@ -14,6 +17,7 @@ import jax.numpy as jnp
 from jaxdpd.observables.conformation import (
     bond_vectors,
     end_to_end_squared,
+    fractional_extension,
     gyration_radius_squared,
 )
 from jaxdpd.topology import chain_coordinates
@@ -38,6 +42,11 @@ def conformation_samples(box, positions, blocks) -> dict:
             samples[f"{block.species}/end_to_end_sq"] = jnp.mean(end_to_end_squared(chains))
             samples[f"{block.species}/gyration_radius_sq"] = jnp.mean(
                 gyration_radius_squared(chains)
+            )
+        if block.law.max_extension is not None:
+            contour_length = (block.beads - 1) * block.law.max_extension
+            samples[f"{block.species}/fractional_extension"] = jnp.mean(
+                fractional_extension(chains, contour_length)
             )
     return samples
 
