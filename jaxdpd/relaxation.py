@@ -9,12 +9,16 @@ Newton's equations), and the squared end-to-end distance relaxes as
     ⟨R_e²⟩(t) = L_0² e^{−t/λ_0} + L_e²                       (thesis eq. 5.15),
 
 fitted by jaxdpd.observables.fits.fit_end_to_end_relaxation.  For dumbbells R_e is
-the spring vector.  Run replicas (jaxdpd.ensemble.replicate with their own seeds) to
-give every point of the curve a standard error and the fit honest errors (the thesis
-averaged three runs); with one run the fit's errors come from the scatter of the
-points, which are correlated in time, so they are too small.
+the spring vector.  Run replicas (jaxdpd.ensemble.replicate with their own seeds; the
+thesis averaged three runs): the curve is their mean, each point gets its standard
+error over replicas, and the fitted parameters get jackknife errors over replicas
+(the fit repeated on the mean of all replicas but one; Efron & Stein, Ann. Stat. 9,
+586 (1981)), which are honest although the points are correlated in time.  With one
+run the fit's errors come from the scatter of the points, which are correlated in
+time, so they are too small.
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,7 +37,9 @@ class Relaxation:
         error: (T,) its standard error over replicas, or None for one run.
         stretched: ⟨R_e²⟩ in the last step of the stretch.
         fit: eq. 5.15 fitted to the points at times ≥ `fit_after`: "amplitude"
-            (L_0²), "relaxation_time" (λ_0), "plateau" (L_e²).
+            (L_0²), "relaxation_time" (λ_0), "plateau" (L_e²); with replicas its
+            errors and covariance are the jackknife ones over replicas.
+        per_replica: (B, T) the curve of each replica, or None for one run.
         state: the final state (or batch).
     """
 
@@ -43,6 +49,7 @@ class Relaxation:
     stretched: float
     fit: FitResult
     state: object
+    per_replica: np.ndarray | None = None
 
 
 def end_to_end_series_name(simulation, species: str) -> str:
@@ -112,16 +119,40 @@ def stretch_and_relax(
     state = run(
         simulation, state, relax_steps, chunk, on_chunk=lambda r: parts.append(r.series[name])
     )
-    curve = np.concatenate(parts, axis=-1).astype(np.float64)
+    curves = np.concatenate(parts, axis=-1).astype(np.float64)
     last = np.concatenate(stretched, axis=-1)[..., -1]
-    error = None
-    if batched:
-        replicas = curve.shape[0]
-        error = curve.std(axis=0, ddof=1) / np.sqrt(replicas) if replicas > 1 else None
-        curve = curve.mean(axis=0)
     times = simulation.scene.integrator.dt * np.arange(1, relax_steps + 1)
     kept = times >= fit_after
-    fit = fit_end_to_end_relaxation(
-        times[kept], curve[kept], None if error is None else error[kept]
-    )
-    return Relaxation(times, curve, error, float(np.mean(last)), fit, state)
+    if not batched or curves.shape[0] == 1:
+        curve = curves.reshape(-1)
+        fit = fit_end_to_end_relaxation(times[kept], curve[kept])
+        return Relaxation(times, curve, None, float(np.mean(last)), fit, state)
+    curve = curves.mean(axis=0)
+    error = curves.std(axis=0, ddof=1) / np.sqrt(len(curves))
+    fit = fit_end_to_end_relaxation(times[kept], curve[kept], error[kept])
+    fit = replica_jackknife(fit, times[kept], curves[:, kept])
+    return Relaxation(times, curve, error, float(np.mean(last)), fit, state, curves)
+
+
+def replica_jackknife(fit: FitResult, times, curves) -> FitResult:
+    """`fit` with the jackknife covariance over replicas: the fit repeated on the mean
+    of all replicas but one, cov = (B − 1)/B Σ_k (θ_k − θ̄)(θ_k − θ̄)ᵀ (Efron & Stein
+    1981).  Honest for points correlated in time, since the replicas are independent.
+
+    Args:
+        fit: the fit of the mean curve.
+        times: (T,) the fitted times.
+        curves: (B, T) each replica's curve at those times; the fits are weighted by
+            the standard errors over the replicas kept, as `fit` is over all.
+    """
+    replicas = len(curves)
+    values = []
+    for k in range(replicas):
+        # The weights are estimated from the same replicas, so they are left out too.
+        others = np.delete(curves, k, axis=0)
+        error = others.std(axis=0, ddof=1) / np.sqrt(replicas - 1)
+        values.append(fit_end_to_end_relaxation(times, others.mean(axis=0), error).values)
+    values = np.stack(values)
+    deviations = values - values.mean(axis=0)
+    covariance = (replicas - 1) / replicas * deviations.T @ deviations
+    return dataclasses.replace(fit, errors=np.sqrt(np.diag(covariance)), covariance=covariance)
