@@ -13,7 +13,8 @@ the spring vector.  Run replicas (jaxdpd.ensemble.replicate with their own seeds
 thesis averaged three runs): the curve is their mean, each point gets its standard
 error over replicas, and the fitted parameters get jackknife errors over replicas
 (the fit repeated on the mean of all replicas but one; Efron & Stein, Ann. Stat. 9,
-586 (1981)), which are honest although the points are correlated in time.  With one
+586 (1981); from 3 replicas), which are honest although the points are correlated
+in time.  With one
 run the fit's errors come from the scatter of the points, which are correlated in
 time, so they are too small.
 """
@@ -130,7 +131,8 @@ def stretch_and_relax(
     curve = curves.mean(axis=0)
     error = curves.std(axis=0, ddof=1) / np.sqrt(len(curves))
     fit = fit_end_to_end_relaxation(times[kept], curve[kept], error[kept])
-    fit = replica_jackknife(fit, times[kept], curves[:, kept])
+    if len(curves) >= 3:
+        fit = replica_jackknife(fit, times[kept], curves[:, kept])
     return Relaxation(times, curve, error, float(np.mean(last)), fit, state, curves)
 
 
@@ -143,9 +145,13 @@ def replica_jackknife(fit: FitResult, times, curves) -> FitResult:
         fit: the fit of the mean curve.
         times: (T,) the fitted times.
         curves: (B, T) each replica's curve at those times; the fits are weighted by
-            the standard errors over the replicas kept, as `fit` is over all.
+            the standard errors over the replicas kept, as `fit` is over all; B ≥ 3.
+    Returns:
+        `fit` with the jackknife errors and covariance.
     """
     replicas = len(curves)
+    if replicas < 3:
+        raise ValueError(f"curves: the jackknife needs ≥ 3 replicas, got {replicas}")
     values = []
     for k in range(replicas):
         # The weights are estimated from the same replicas, so they are left out too.
