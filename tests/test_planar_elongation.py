@@ -33,7 +33,7 @@ from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
 
-SMALL = [4.5, 3.0, 4.5]  # N = 182 at ρ = 3; stable below ε̇ ≈ 1.27
+SMALL = [4.0, 3.0, 4.0]  # N = 144 at ρ = 3; stable below ε̇ ≈ 1.27
 RATES = [0.0, 0.1, 1.0]
 CHUNK = 125
 PERIODS = 200
