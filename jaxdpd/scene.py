@@ -384,7 +384,11 @@ class Scene:
             _check_lattice(solvent, lengths, integrator)
         # Springs must stay shorter than half the box for their minimum image to be
         # unique: half the shortest edge, or half the thinnest Kraynik–Reinelt cell.
-        spring_room = min(heights) if box_kind == "kraynik_reinelt" else min(lengths)
+        spring_room = (
+            (min(heights), "the thinnest Kraynik–Reinelt cell", "thesis §3.4.3")
+            if box_kind == "kraynik_reinelt"
+            else (min(lengths), "the shortest box edge", "thesis §3.2.3")
+        )
         polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
         run = _read_run(data.get("run", {}))
         output = _read_output(data.get("output", {}), heights, run.chunk, solvent)
@@ -966,7 +970,9 @@ def _polymer_entries(entries) -> list:
     return entries
 
 
-def _read_polymers(entries: list, species, solvent: Solvent, spring_room) -> tuple[Polymer, ...]:
+def _read_polymers(
+    entries: list, species, solvent: Solvent, spring_room: tuple[float, str, str]
+) -> tuple[Polymer, ...]:
     if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann"):
         raise ValueError(
             "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen' or "
@@ -996,8 +1002,9 @@ def _read_polymers(entries: list, species, solvent: Solvent, spring_room) -> tup
     return tuple(polymers)
 
 
-def _read_bond(section, path: str, spring_room: float) -> dict:
-    """The bond table; `spring_room` is twice the longest spring the box allows."""
+def _read_bond(section, path: str, spring_room: tuple[float, str, str]) -> dict:
+    """The bond table; `spring_room` is (twice the longest spring the box allows,
+    what that length is, its reference)."""
     if section is None:
         raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
     check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
@@ -1012,12 +1019,12 @@ def _read_bond(section, path: str, spring_room: float) -> dict:
         bond[key] = read_number(
             section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
         )
-    if "max_extension" in bond and not bond["max_extension"] < spring_room / 2:
+    room, room_name, reference = spring_room
+    if "max_extension" in bond and not bond["max_extension"] < room / 2:
         raise ValueError(
             f"{path}.max_extension = {bond['max_extension']}: a spring must stay shorter "
-            f"than half the box ({spring_room / 2:.4g}: the shortest edge, or the thinnest "
-            "Kraynik–Reinelt cell; thesis §3.2.3, §3.4.3); enlarge the box or shorten the "
-            "spring"
+            f"than half {room_name} ({room / 2:.4g}; {reference}); "
+            "enlarge the box or shorten the spring"
         )
     if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
         raise ValueError(
