@@ -50,7 +50,8 @@ def test_planar_elongation_scene_round_trips_with_its_defaults():
 )
 def test_bad_planar_elongation_input_names_the_field(change, message):
     # A section given as None is removed.
-    data = {name: value for name, value in {**elongation_dict(), **change}.items() if value is not None}
+    merged = {**elongation_dict(), **change}
+    data = {name: value for name, value in merged.items() if value is not None}
     with pytest.raises((ValueError, TypeError), match=message):
         Scene.from_dict(data)
 
