@@ -46,13 +46,11 @@ def _common_buffers(simulation, states: list, minimum=None) -> list:
     needs = minimum
     for _ in range(MAX_REALLOCATIONS + 1):
         states = [simulation.reallocate(s, needs) for s in states]
-        shapes = {(s.pair_list.capacity, s.pair_list.cell_capacity) for s in states}
-        if len(shapes) == 1:
+        if len({simulation.buffer_shapes(s) for s in states}) == 1:
             return states
-        needs = (
-            max(int(s.pair_list.needed_pairs) for s in states),
-            max(int(s.pair_list.needed_cell_occupancy) for s in states),
-        )
+        # Buffers differ in shape here, so the replicas cannot be stacked: the largest
+        # need of each kind over the replicas.
+        needs = tuple(np.max(v) for v in zip(*map(simulation.buffer_needs, states), strict=True))
     raise AssertionError("neighbour buffers of the replicas did not converge to one shape")
 
 
@@ -146,8 +144,7 @@ def run_chunk(simulation, batch, length: int):
         overflowed = (flags & errors.NEIGHBOR_OVERFLOW) != 0
         broken = (flags & ~errors.NEIGHBOR_OVERFLOW) != 0
         if overflowed.any() and not broken.any() and attempt < MAX_REALLOCATIONS:
-            needs = new_batch.pair_list
-            minimum = (int(np.max(needs.needed_pairs)), int(np.max(needs.needed_cell_occupancy)))
+            minimum = simulation.buffer_needs(new_batch)
             resized = stack(_common_buffers(simulation, unstack(batch), minimum))
             batch = shard(resized) if batch_sharding(len(flags)) is not None else resized
             continue

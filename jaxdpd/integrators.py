@@ -1,14 +1,17 @@
 """Time integrators.  Each factory returns `step(state) -> state`.
 
-`interactions(positions, velocities, state) -> (vectors, virial, pair_list, bits)` is
+`interactions(positions, velocities, state) -> (vectors, virial, state, bits)` is
 the composed force kernel of the scene (forces for velocity Verlet, impulses for the
-Hoogerbrugge–Koelman collision); it refreshes the neighbour list itself and reports
-error bits of its own (e.g. an overstretched spring).
+Hoogerbrugge–Koelman collision); it refreshes the neighbour lists itself (it returns
+`state` with them refreshed: the pair list, and the spring-pair list where there is
+one) and reports error bits of its own (e.g. an overstretched spring, a spring-pair
+list overflow).
 """
 
+import jax
 import jax.numpy as jnp
 
-from jaxdpd import errors, flows
+from jaxdpd import errors, flows, noise
 
 
 def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
@@ -81,7 +84,7 @@ def modified_velocity_verlet(
         advanced = state.set(
             positions=positions, image=image, box_state=box_state, step=state.step + 1
         )
-        new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
+        new_forces, virial, advanced, bits = interactions(positions, predicted, advanced)
         right_hand_side = state.velocities + (0.5 * dt_) * (
             rate_of_change + acceleration(new_forces)
         )
@@ -90,10 +93,9 @@ def modified_velocity_verlet(
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
-            pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
+            flags=_flag(state, positions, velocities, advanced.pair_list, kT, bits, masses),
         )
 
     return step
@@ -158,18 +160,166 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
     dt_ = jnp.asarray(dt, dtype)
 
     def step(state):
-        impulses, virial, pair_list, bits = interactions(state.positions, state.velocities, state)
+        impulses, virial, refreshed, bits = interactions(state.positions, state.velocities, state)
         velocities = state.velocities + impulses
         positions, image = box.wrap(state.positions + dt_ * velocities, state.image)
-        return state.set(
+        return refreshed.set(
             positions=positions,
             velocities=velocities,
             image=image,
-            pair_list=pair_list,
             virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits),
+            flags=_flag(state, positions, velocities, refreshed.pair_list, kT, bits),
+        )
+
+    return step
+
+
+def free_flight_stress(gradient, velocities, weights, duration):
+    """Σ_i w_i [⟨c c^T⟩_flight − c c^T]: how the peculiar momentum flux averaged over a
+    free flight of `duration` differs from its value at the start.
+
+    In a flow of gradient L a free particle keeps its laboratory velocity, so its
+    peculiar velocity drifts, c(t) = c − t L c (jaxdpd.flows), and the kinetic stress
+    it carries, time-averaged over the flight h, is
+    ⟨c c^T⟩ = c c^T − (h/2)(L c c^T + c c^T L^T) + (h²/3) L c c^T L^T.  For MPCD the
+    correction is of the order of the kinetic stress itself (in shear its xy part,
+    −(h/2) γ̇ ρ k_BT per volume, is the −½ of η_kin in Mussawisade et al. eq. 6).
+
+    Args:
+        gradient: (3, 3) velocity gradient L.
+        velocities: (N, 3) peculiar velocities at the start of the flight.
+        weights: (N,) masses of the particles in free flight (0 for the others).
+        duration: h.
+    Returns:
+        (3, 3) tensor, added to the kinetic one as the virial part "streaming".
+    """
+    weighted = weights[:, None] * velocities
+    dyad = velocities.T @ weighted  # Σ w c c^T
+    drifted = gradient @ dyad
+    return -0.5 * duration * (drifted + drifted.T) + (duration**2 / 3) * drifted @ gradient.T
+
+
+def mpcd_cycle(
+    box,
+    collision_time: float,
+    substeps: int,
+    monomers,
+    monomer_step,
+    collide,
+    kT: float,
+    dtype,
+    masses=None,
+    with_virial: bool = False,
+):
+    """One MPCD cycle (Mussawisade et al. 2005, §II): streaming over the collision time
+    h, then a collision.
+
+    Streaming: every particle outside the monomer range moves ballistically,
+    r ← r + h v (eq. 1); in a sheared box v = c + u(r) and the peculiar velocity
+    becomes c − h L v (SLLOD without forces, exact for free flight; jaxdpd.flows).
+    The monomers [first, stop) instead take `substeps` steps of `monomer_step`
+    (velocity Verlet with h_p = h/substeps under their bonded and pair forces) on a
+    state that holds their rows only.  Collision: `collide(bound box, positions,
+    velocities, key) -> (velocities, collisional virial or None)` with the key of
+    collision n + 1 (`noise.step_key(seed, n + 1)`, n the step counter), so the grid
+    shift and rotation axes are functions of (seed, collision index) alone.
+
+    Recorded virial parts (`with_virial`): the monomers' force parts at the end of
+    the streaming; "collision", the collision's virial divided by h (the mean force
+    over the cycle, as for the Hoogerbrugge–Koelman impulses); in a flowing box
+    "streaming", the free-flight drift of the solvent's kinetic stress
+    (`free_flight_stress`; the monomers' kinetic stress is sampled at the collision).
+
+    Args:
+        box: the static box (bound to the state's box_state; its `wrap` moves
+            particles across the boundaries).
+        collision_time: h.
+        substeps: h/h_p.
+        monomers: (first, stop) index range of the monomers, or None.
+        monomer_step: `step(state) -> state` over the monomer rows (None without
+            monomers).
+        collide: the collision.
+        kT: temperature scale of the runaway check.
+        dtype: floating dtype.
+        masses: (N,) masses or None.
+        with_virial: record the virial parts.
+    Returns:
+        `step(state) -> state`, one collision per step; time advances by h.
+    """
+    h = jnp.asarray(collision_time, dtype)
+
+    def stream_monomers(state, first, stop):
+        rows = slice(first, stop)
+        sub = state.set(
+            positions=state.positions[rows],
+            velocities=state.velocities[rows],
+            forces=state.forces[rows],
+            image=state.image[rows],
+            species=state.species[rows],
+            virial={},
+        )
+        # The loop carries the virial parts the force kernel records (zeros at first).
+        parts = jax.eval_shape(monomer_step, sub).virial
+        sub = sub.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
+        return jax.lax.fori_loop(0, substeps, lambda _, s: monomer_step(s), sub)
+
+    def free_weights(state):
+        """Masses of the particles in free flight (zero for the monomers)."""
+        weights = jnp.ones(state.velocities.shape[0], dtype) if masses is None else masses
+        if monomers is None:
+            return weights
+        return weights.at[monomers[0] : monomers[1]].set(0)
+
+    def stream(bound, new_bound, positions, velocities):
+        """Free flight over h: positions (unwrapped) and peculiar velocities."""
+        moved = positions + h * flows.drift_velocity(bound, positions, velocities)
+        curvature = flows.streaming_curvature(bound, positions)
+        if curvature is not None:
+            moved = moved + (0.5 * h * h) * curvature
+        drag = flows.sllod_drag(bound, velocities)
+        if drag is None:
+            return moved, velocities
+        return moved, flows.implicit_sllod_velocity(new_bound, velocities + 0.5 * h * drag, h)
+
+    def step(state):
+        bound = box.bind(state.box_state)
+        box_state = box.advance(state.box_state, state.time, h)
+        new_bound = box.bind(box_state)
+        moved, velocities = stream(bound, new_bound, state.positions, state.velocities)
+        positions, image = new_bound.wrap(moved, state.image)
+        forces, virial = state.forces, {}
+        pair_list, bits = state.pair_list, jnp.int32(0)
+        if monomers is not None:
+            first, stop = monomers
+            moved = stream_monomers(state, first, stop)
+            positions = positions.at[first:stop].set(moved.positions)
+            image = image.at[first:stop].set(moved.image)
+            velocities = velocities.at[first:stop].set(moved.velocities)
+            forces = forces.at[first:stop].set(moved.forces)
+            virial, pair_list, bits = dict(moved.virial), moved.pair_list, moved.flags
+        collision = state.step + 1
+        velocities, collision_virial = collide(
+            new_bound, positions, velocities, noise.step_key(state.seed, collision)
+        )
+        if collision_virial is not None:
+            virial["collision"] = collision_virial / h
+        if with_virial and bound.velocity_gradient is not None:
+            virial["streaming"] = free_flight_stress(
+                bound.velocity_gradient, state.velocities, free_weights(state), h
+            )
+        return state.set(
+            positions=positions,
+            velocities=velocities,
+            forces=forces,
+            image=image,
+            pair_list=pair_list,
+            virial=virial,
+            box_state=box_state,
+            step=collision,
+            time=state.time + h,
+            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
         )
 
     return step

@@ -4,6 +4,8 @@ The random number of pair (i, j) at step n is a pure function of
 (seed, n, min(i, j), max(i, j)): θ_ij = θ_ji exactly, so pair forces stay
 antisymmetric and momentum is conserved to round-off, and a trajectory does not
 depend on the neighbour-list format, its capacity or the order of its pairs.
+Numbers that belong to one site (a particle, an MPCD collision cell) are drawn the
+same way from (seed, n, site) by `site_bits`.
 
 The hash is the 32-bit integer finaliser "lowbias32" (C. Wellons, hash-prospector,
 bias ≈ 0.17, better than MurmurHash3's fmix32), chained over the four words.  It is
@@ -61,6 +63,22 @@ def pair_bits(key, i, j, stream=0):
     return mix32(h + hi)
 
 
+def site_bits(key, index, stream=0):
+    """32 random bits for each site (a particle, a collision cell, ...).
+
+    The diagonal (i, i) of `pair_bits`: pair noise never draws it (i ≠ j), so site
+    and pair numbers of the same key are independent.
+
+    Args:
+        key: uint32 scalar from `step_key`.
+        index: integer array of site identities.
+        stream: small integer selecting an independent stream for the same site.
+    Returns:
+        uint32 array, shape of index.
+    """
+    return pair_bits(key, index, index, stream)
+
+
 def bits_to_unit_interval(bits, dtype):
     """Map uint32 bits to a uniform variate on the open interval (0, 1).
 
@@ -81,10 +99,11 @@ def pair_uniform_unit_variance(key, i, j, dtype):
     return (u * 2 - 1) * jnp.sqrt(jnp.asarray(3.0, dtype))
 
 
-def pair_gaussian(key, i, j, dtype):
-    """Standard normal variate, symmetric in (i, j) (Box–Muller on two streams)."""
-    u1 = bits_to_unit_interval(pair_bits(key, i, j, stream=0), dtype)
-    u2 = bits_to_unit_interval(pair_bits(key, i, j, stream=1), dtype)
+def pair_gaussian(key, i, j, dtype, stream=0):
+    """Standard normal variate, symmetric in (i, j) (Box–Muller on the two bit
+    streams 2·stream and 2·stream + 1; another `stream` gives an independent one)."""
+    u1 = bits_to_unit_interval(pair_bits(key, i, j, stream=2 * stream), dtype)
+    u2 = bits_to_unit_interval(pair_bits(key, i, j, stream=2 * stream + 1), dtype)
     return jnp.sqrt(-2 * jnp.log(u1)) * jnp.cos(2 * jnp.pi * u2)
 
 

@@ -39,11 +39,12 @@ from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
 from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
+from jaxdpd.observables.rheology import summary_rows
 from jaxdpd.running_averages import RunningBlockAverages
 from jaxdpd.simulation import build
 
 # Components of the pressure tensor reported in the summary table.
-TENSOR_COMPONENTS = ((0, 1, "P_xy"), (0, 0, "P_xx"), (2, 2, "P_zz"))
+TENSOR_COMPONENTS = ((0, 1, "P_xy"), (1, 0, "P_yx"), (0, 0, "P_xx"), (2, 2, "P_zz"))
 
 
 @dataclass
@@ -315,7 +316,7 @@ class Run:
         """name -> (lag times, values) of the on-device chain correlators."""
         if state.observers is None:
             return {}
-        interval = self.scene.output.correlator_every * self.scene.integrator.dt
+        interval = self.scene.output.correlator_every * self.scene.step_time
         return chain_correlations(state.observers, interval)
 
     def _summary(self, state, rdf, correlations, wall: float) -> RunSummary:
@@ -324,7 +325,11 @@ class Run:
         if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
             (t0, s0), (t1, s1) = self.chunk_ends
             summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-        summary.averages = _summary_averages(self.averages) | center_of_mass_diffusion(correlations)
+        summary.averages = (
+            _summary_averages(self.averages)
+            | center_of_mass_diffusion(correlations)
+            | summary_rows(scene, self.averages.block_means(), self.averages.n_blocks)
+        )
         summary.references = ideal_references(self.simulation.blocks, scene.solvent.kT)
         summary.series = {name: np.concatenate(parts) for name, parts in self.series.items()}
         return summary

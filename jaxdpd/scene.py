@@ -15,7 +15,9 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 particles; a Kraynik–Reinelt box needs Lx = Lz)
     [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
                 oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
-                needs a Lees–Edwards box and solvent.method "dpd"
+                needs a Lees–Edwards box and solvent.method "dpd", "lowe_andersen" or
+                "mpcd" (MPCD shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress
+                is not symmetric)
                 kind = "planar_elongation": elongation_rate ε̇ (1/time, any sign;
                 u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
                 = 1..4 (lattice of thesis table 3.27, default 1); needs a
@@ -37,8 +39,20 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 kinematic_viscosity ν > 0, kinematic_bulk_viscosity ν_b > 0 (default
                 ν), friction ζ > 0 (bare bead–fluid friction), noise = "uniform"|
                 "gaussian"; units are the scene's own (e.g. Lennard-Jones units)
+                method = "mpcd" (stochastic rotation dynamics, Mussawisade et al. 2005
+                §II): kT > 0 (initial velocities, thermostat), cell_size a > 0
+                (every box edge a whole multiple ≥ 2), rotation_angle α in (0, 180]
+                degrees (default 130), collision_time h > 0 (default 0.1),
+                thermostat = "none" | "maxwell_boltzmann_scaling" (cell level,
+                Huang et al. 2010), collision = "cell" (SRD) | "particle" (the
+                solvent-free Rouse variant, §IV.A: every particle must be a monomer);
+                particles per cell ρ = particles.density · a³.  Solvent particles
+                stream freely; monomers move by velocity Verlet with integrator.dt =
+                h_p (h/h_p a whole number, default h_p = h) and join the collisions
+                with their species masses
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
-                {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen)
+                {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen; with mpcd it acts
+                among the [[polymers]] species only)
                 kind = "wca": epsilon > 0, sigma > 0 (Weeks–Chandler–Andersen,
                 cut-off 2^(1/6) σ)
     [[polymers]] species = name of a particle species whose particles are chained,
@@ -47,25 +61,40 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
                 (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd, lowe_andersen and lattice_boltzmann solvents
+                wca_sigma = 1); dpd, lowe_andersen, lattice_boltzmann and mpcd solvents
+                (with mpcd the chained species must be adjacent in particles.species)
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
+                kind = "tagged": amplitude F, species = name: f_x = F on each of the
+                k particles of that species, −k F/(N − k) on every other one (drag
+                coefficient, thesis §4.2.4)
+    [spring_repulsion] between the springs of all chains (thesis §5.2; jaxdpd.segments):
+                law = "exponential" (A = 100 k_BT, alpha = 10/r_c; Kumar–Larson eq. 5.6)
+                | "linear" (a, force 3a(1 − D/range) at contact distance D; Pan–Manke
+                eq. 5.5); range = r_c/3 > 0; distance_floor = 0.001 r_c (≥ 0, < range);
+                needs [[polymers]]
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
                 lattice_boltzmann); lambda in [0, 1] (dpd only: Lowe–Andersen and
                 lattice-Boltzmann steps have no velocity-dependent force to predict)
     [neighbors] method = "cell_list" | "jax_md" | "all_pairs" (every pair, fixed: for
                 small systems such as one chain); format (jax_md) = "dense" |
-                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
+                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1;
+                spring_skin ≥ 0 (default 0.5: skin of the spring-pair list, used with
+                [spring_repulsion] or the "spring_pairs" observable)
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
-                "pressure", "rdf", "conformation", "dynamics", "profile"} (default
-                temperature and pressure; no pressure with lattice_boltzmann); rdf_bins,
-                rdf_max; profile_bins ≥ 1 (slabs along y);
+                "pressure", "rdf", "conformation", "dynamics", "profile",
+                "transverse_current", "drag" (needs body_force.kind = "tagged"),
+                "spring_pairs"} (default temperature and pressure; no pressure with
+                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs along y);
+                spring_pair_bins ≥ 1, spring_pair_max > 0 (default r_c/3: histogram of
+                spring closest approaches, and spring crossings; needs [[polymers]]);
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
                 samples of the "dynamics" correlators), correlator_levels ≥ 1;
-                checkpoint_every (steps, 0 = only at the end, on errors and on
-                SIGINT/SIGTERM); trajectory_every and checkpoint_every are multiples
-                of run.chunk
+                current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
+                current_modes; cubic boxes); checkpoint_every (steps, 0 = only at
+                the end, on errors and on SIGINT/SIGTERM); trajectory_every and
+                checkpoint_every are multiples of run.chunk
 """
 
 import json
@@ -74,6 +103,8 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 
 from jaxdpd.boxes import make_box
+from jaxdpd.mpcd.cells import collision_grid
+from jaxdpd.segments import SPRING_REPULSION_LAWS
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -83,7 +114,9 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen", "lattice_boltzmann")
+SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen", "lattice_boltzmann", "mpcd")
+MPCD_THERMOSTATS = ("none", "maxwell_boltzmann_scaling")
+MPCD_COLLISIONS = ("cell", "particle")
 LOWE_ANDERSEN_KEYS = ("collision_frequency", "thermalization_cutoff")
 LATTICE_BOLTZMANN_FIELDS = (
     "grid_spacing",
@@ -109,9 +142,22 @@ FLOW_FIELDS = {
     "shear": ("shear_rate", "oscillation_frequency"),
     "planar_elongation": ("elongation_rate", "kraynik_reinelt_case"),
 }
-FLOW_SOLVENTS = ("dpd", "lowe_andersen")
-OBSERVABLES = ("temperature", "pressure", "rdf", "conformation", "dynamics", "profile")
-POLYMER_OBSERVABLES = ("conformation", "dynamics")
+FLOW_SOLVENTS = ("dpd", "lowe_andersen", "mpcd")
+# Solvents with a Kraynik–Reinelt (planar elongation) step: the pair-based ones.
+ELONGATION_SOLVENTS = ("dpd", "lowe_andersen")
+OBSERVABLES = (
+    "temperature",
+    "pressure",
+    "rdf",
+    "conformation",
+    "dynamics",
+    "profile",
+    "transverse_current",
+    "drag",
+    "spring_pairs",
+)
+BODY_FORCE_KINDS = ("cosine", "tagged")
+POLYMER_OBSERVABLES = ("conformation", "dynamics", "spring_pairs")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
@@ -179,11 +225,21 @@ class Solvent:
     kinematic_viscosity: float = 1.0
     kinematic_bulk_viscosity: float = 1.0
     friction: float = 1.0
+    cell_size: float = 1.0
+    rotation_angle: float = 130.0
+    collision_time: float = 0.1
+    thermostat: str = "none"
+    collision: str = "cell"
 
     @property
     def sigma(self) -> float:
         """Random-force amplitude σ = √(2 γ k_BT) (thesis eq. 2.8)."""
         return math.sqrt(2 * self.gamma * self.kT)
+
+    @property
+    def rotation_angle_radians(self) -> float:
+        """The MPCD rotation angle α in radians (the scene gives degrees)."""
+        return math.radians(self.rotation_angle)
 
 
 @dataclass(frozen=True)
@@ -223,14 +279,43 @@ class BodyForce:
     """An external force on every particle (jaxdpd.forcing).
 
     Attributes:
-        kind: "cosine": f_x = amplitude cos(2π waves y / L_y).
-        amplitude: F, force per particle.
-        waves: n, periods across the box along y.
+        kind: "cosine": f_x = amplitude cos(2π waves y / L_y); "tagged": f_x =
+            amplitude on the particles of `species`, −amplitude k/(N − k) on the others.
+        amplitude: F, force per (tagged) particle.
+        waves: n, periods across the box along y (cosine).
+        species: the tagged species (tagged).
     """
 
     kind: str
     amplitude: float
     waves: int = 1
+    species: str | None = None
+
+
+@dataclass(frozen=True)
+class SpringRepulsion:
+    """Repulsion between the springs of every chain (jaxdpd.segments).
+
+    Attributes:
+        law: "exponential" or "linear".
+        parameters: the law's parameters ((name, value), ...): A and alpha, or a.
+        range: D_c, the closest-approach distance from which on the force is zero.
+        distance_floor: D_min, the distance closer springs are treated as being at.
+    """
+
+    law: str
+    parameters: tuple[tuple[str, float], ...]
+    range: float
+    distance_floor: float
+
+    def table(self) -> dict:
+        """The section as a flat dictionary (law, its parameters, range, floor)."""
+        return {
+            "law": self.law,
+            **dict(self.parameters),
+            "range": self.range,
+            "distance_floor": self.distance_floor,
+        }
 
 
 @dataclass(frozen=True)
@@ -249,6 +334,7 @@ class Neighbors:
     format: str = "ordered_sparse"
     skin: float = 0.0
     capacity_multiplier: float = 1.25
+    spring_skin: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -267,12 +353,15 @@ class Output:
     path: str | None = None
     observables: tuple[str, ...] = ("temperature", "pressure")
     rdf_bins: int = 100
+    current_modes: int = 3
     rdf_max: float = 3.0
     trajectory_every: int = 0
     checkpoint_every: int = 0
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
+    spring_pair_bins: int = 50
+    spring_pair_max: float = 1.0 / 3.0  # from_dict's default: cutoff / 3
 
 
 @dataclass(frozen=True)
@@ -290,6 +379,7 @@ class Scene:
     polymers: tuple[Polymer, ...] = ()
     flow: Flow | None = None
     body_force: BodyForce | None = None
+    spring_repulsion: SpringRepulsion | None = None
     neighbors: Neighbors = field(default_factory=Neighbors)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
@@ -327,6 +417,7 @@ class Scene:
                 "polymers",
                 "flow",
                 "body_force",
+                "spring_repulsion",
                 "neighbors",
                 "run",
                 "output",
@@ -390,12 +481,35 @@ class Scene:
             else (min(lengths), "the shortest box edge", "thesis §3.2.3")
         )
         polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
+        if solvent.method == "mpcd":
+            _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), heights, run.chunk, solvent)
+        output = _read_output(data.get("output", {}), heights, run.chunk, solvent, cutoff)
+        if "transverse_current" in output.observables and len(set(lengths)) != 1:
+            raise ValueError(
+                f"output.observables: 'transverse_current' averages the six transverse pairs "
+                f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
+            )
+        spring_repulsion = _read_spring_repulsion(data.get("spring_repulsion"), polymers, cutoff)
+        if solvent.method == "mpcd" and (
+            spring_repulsion is not None or "spring_pairs" in output.observables
+        ):
+            raise ValueError(
+                "spring_repulsion / output.observables 'spring_pairs': not available with "
+                "solvent.method = 'mpcd' (its monomer step does not carry the spring-pair "
+                "list); remove them"
+            )
+        _check_spring_reach(spring_repulsion, output, neighbors, heights)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
                 "rest; under flow, measure the chains with 'conformation'"
+            )
+        body_force = _read_body_force(data.get("body_force"), solvent, particles)
+        if "drag" in output.observables and _kind(body_force) != "tagged":
+            raise ValueError(
+                "output.observables: 'drag' measures the drift of tagged particles; add "
+                "[body_force] kind = 'tagged' with their species, or remove it"
             )
         for name in POLYMER_OBSERVABLES:
             if name in output.observables and not polymers:
@@ -414,7 +528,8 @@ class Scene:
             integrator=integrator,
             polymers=polymers,
             flow=flow,
-            body_force=_read_body_force(data.get("body_force"), solvent),
+            body_force=body_force,
+            spring_repulsion=spring_repulsion,
             neighbors=neighbors,
             run=run,
             output=output,
@@ -427,9 +542,28 @@ class Scene:
         return self.particles.count
 
     @property
+    def step_time(self) -> float:
+        """Simulated time per step: the collision time h of an MPCD solvent (its
+        monomer sub-steps integrator.dt run inside the step), else integrator.dt."""
+        if self.solvent.method == "mpcd":
+            return self.solvent.collision_time
+        return self.integrator.dt
+
+    @property
     def volume(self) -> float:
         """Box volume."""
         return math.prod(self.box.lengths)
+
+    @property
+    def spring_reach(self) -> float | None:
+        """The largest spring closest-approach distance any term or observable reads
+        (the spring-pair list's reach), or None when nothing reads spring pairs."""
+        reaches = []
+        if self.spring_repulsion is not None:
+            reaches.append(self.spring_repulsion.range)
+        if "spring_pairs" in self.output.observables:
+            reaches.append(self.output.spring_pair_max)
+        return max(reaches) if reaches else None
 
     @property
     def particle_momentum_conserved(self) -> bool:
@@ -471,6 +605,14 @@ class Scene:
             del data["polymers"]
         if self.body_force is None:
             del data["body_force"]
+        elif self.body_force.kind == "cosine":
+            del data["body_force"]["species"]
+        else:
+            del data["body_force"]["waves"]
+        if self.spring_repulsion is None:
+            del data["spring_repulsion"]
+        else:
+            data["spring_repulsion"] = self.spring_repulsion.table()
         if self.flow is None:
             del data["flow"]
         else:
@@ -513,6 +655,10 @@ def _solvent_dict(solvent: Solvent) -> dict:
     if solvent.method == "lattice_boltzmann":
         fields = {name: getattr(solvent, name) for name in LATTICE_BOLTZMANN_FIELDS}
         return {"method": solvent.method, "kT": solvent.kT, "noise": solvent.noise, **fields}
+    if solvent.method == "mpcd":
+        return {"method": "mpcd", "kT": solvent.kT} | {
+            key: getattr(solvent, key) for key in MPCD_FIELDS
+        }
     if solvent.method == "dpd":
         return {
             "method": "dpd",
@@ -537,39 +683,65 @@ def _solvent_dict(solvent: Solvent) -> dict:
     }
 
 
+MPCD_FIELDS = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
+HOOGERBRUGGE_KOELMAN_FIELDS = ("pi0", "omega", "delta_pi")
+DPD_FIELDS = ("gamma", "sigma", "noise")
+
+
+SOLVENT_FIELDS = {
+    "dpd": DPD_FIELDS,
+    "hoogerbrugge_koelman": HOOGERBRUGGE_KOELMAN_FIELDS,
+    "lowe_andersen": LOWE_ANDERSEN_KEYS,
+    "lattice_boltzmann": (*LATTICE_BOLTZMANN_FIELDS, "noise"),
+    "mpcd": MPCD_FIELDS,
+}
+
+
+def _refuse_fields_of_other_methods(section, method: str) -> None:
+    """Fields that belong to another solvent method are an error, not ignored."""
+    own = set(SOLVENT_FIELDS[method])
+    for owner, fields in SOLVENT_FIELDS.items():
+        misplaced = sorted((set(fields) - own) & set(section))
+        if owner != method and misplaced:
+            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
+
+
+def _read_mpcd_solvent(section) -> Solvent:
+    """The MPCD (SRD) solvent fields (module docstring)."""
+    path = "solvent"
+    return Solvent(
+        "mpcd",
+        kT=read_number(section, "kT", path, 1.0, minimum=0, exclusive_minimum=True),
+        cell_size=read_number(section, "cell_size", path, 1.0, minimum=0, exclusive_minimum=True),
+        rotation_angle=read_number(
+            section, "rotation_angle", path, 130.0, minimum=0, exclusive_minimum=True, maximum=180
+        ),
+        collision_time=read_number(
+            section, "collision_time", path, 0.1, minimum=0, exclusive_minimum=True
+        ),
+        thermostat=read_choice(section, "thermostat", path, MPCD_THERMOSTATS, "none"),
+        collision=read_choice(section, "collision", path, MPCD_COLLISIONS, "cell"),
+    )
+
+
 def _read_solvent(section) -> Solvent:
     check_keys(
         section,
-        (
-            "method",
-            "kT",
-            "gamma",
-            "sigma",
-            "noise",
-            "pi0",
-            "omega",
-            "delta_pi",
-            *LOWE_ANDERSEN_KEYS,
-            *LATTICE_BOLTZMANN_FIELDS,
-        ),
+        ("method", "kT", *(field for fields in SOLVENT_FIELDS.values() for field in fields)),
         "solvent",
     )
     method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
-    if method == "lowe_andersen":
-        return _read_lowe_andersen(section)
-    if method == "lattice_boltzmann":
-        return _read_lattice_boltzmann(section)
-    for owner, keys in (
-        ("lowe_andersen", LOWE_ANDERSEN_KEYS),
-        ("lattice_boltzmann", LATTICE_BOLTZMANN_FIELDS),
-    ):
-        misplaced = sorted(set(keys) & set(section))
-        if misplaced:
-            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
+    readers = {
+        "lowe_andersen": _read_lowe_andersen,
+        "lattice_boltzmann": _read_lattice_boltzmann,
+        "mpcd": _read_mpcd_solvent,
+    }
+    if method in readers:
+        solvent = readers[method](section)  # their own messages for common mistakes
+        _refuse_fields_of_other_methods(section, method)
+        return solvent
+    _refuse_fields_of_other_methods(section, method)
     if method == "dpd":
-        misplaced = sorted({"pi0", "omega", "delta_pi"} & set(section))
-        if misplaced:
-            raise ValueError(f"solvent: {misplaced} belong to method 'hoogerbrugge_koelman'")
         kT = read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True)
         gamma = read_number(section, "gamma", "solvent", 4.5, minimum=0)
         if "sigma" in section:
@@ -583,9 +755,8 @@ def _read_solvent(section) -> Solvent:
                 )
         noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
         return Solvent(method, kT=kT, gamma=gamma, noise=noise)
-    misplaced = sorted({"kT", "gamma", "sigma", "noise"} & set(section))
-    if misplaced:
-        raise ValueError(f"solvent: {misplaced} belong to method 'dpd', not {method!r}")
+    if "kT" in section:
+        raise ValueError(f"solvent: ['kT'] belongs to methods 'dpd' and 'mpcd', not {method!r}")
     return Solvent(
         method,
         pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
@@ -696,8 +867,8 @@ def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
         )
 
 
-def _kind(flow: Flow | None) -> str | None:
-    return None if flow is None else flow.kind
+def _kind(section: Flow | BodyForce | None) -> str | None:
+    return None if section is None else section.kind
 
 
 def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
@@ -723,6 +894,11 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
             "'cell_list' with a [flow]"
         )
     if kind == "planar_elongation":
+        if solvent.method not in ELONGATION_SOLVENTS:
+            raise ValueError(
+                f"flow: solvent.method = {solvent.method!r} has no Kraynik–Reinelt step; "
+                f"planar elongation needs one of {list(ELONGATION_SOLVENTS)}"
+            )
         return Flow(
             kind,
             elongation_rate=read_number(section, "elongation_rate", "flow"),
@@ -737,24 +913,42 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     return Flow(kind, shear_rate, frequency)
 
 
-def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
+def _read_body_force(section, solvent: Solvent, particles: Particles) -> BodyForce | None:
     if section is None:
         return None
-    check_keys(section, ("kind", "amplitude", "waves"), "body_force")
+    check_keys(section, ("kind", "amplitude", "waves", "species"), "body_force")
     if solvent.method != "dpd":
         raise ValueError(
             f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
             f"not {solvent.method!r}"
         )
-    return BodyForce(
-        kind=read_choice(section, "kind", "body_force", ("cosine",)),
-        amplitude=read_number(section, "amplitude", "body_force"),
-        waves=read_number(section, "waves", "body_force", 1, minimum=1, integer=True),
-    )
+    kind = read_choice(section, "kind", "body_force", BODY_FORCE_KINDS)
+    amplitude = read_number(section, "amplitude", "body_force")
+    if kind == "cosine":
+        if "species" in section:
+            raise ValueError("body_force.species: only used with body_force.kind = 'tagged'")
+        waves = read_number(section, "waves", "body_force", 1, minimum=1, integer=True)
+        return BodyForce(kind, amplitude, waves)
+    if "waves" in section:
+        raise ValueError("body_force.waves: only used with body_force.kind = 'cosine'")
+    species = read_string(section, "species", "body_force")
+    counts = {s.name: s.count for s in particles.species}
+    if species not in counts:
+        raise ValueError(
+            f"body_force.species = {species!r}: not a particle species; species are {list(counts)}"
+        )
+    if not 1 <= counts[species] < particles.count:
+        raise ValueError(
+            f"body_force.species = {species!r} has {counts[species]} particles: the tagged "
+            "force needs at least one tagged and one untagged particle"
+        )
+    return BodyForce(kind, amplitude, species=species)
 
 
 def _read_neighbors(section) -> Neighbors:
-    check_keys(section, ("method", "format", "skin", "capacity_multiplier"), "neighbors")
+    check_keys(
+        section, ("method", "format", "skin", "capacity_multiplier", "spring_skin"), "neighbors"
+    )
     method = read_choice(section, "method", "neighbors", NEIGHBOR_METHODS, "cell_list")
     if method != "jax_md" and "format" in section:
         raise ValueError("neighbors.format: only used with neighbors.method = 'jax_md'")
@@ -767,6 +961,7 @@ def _read_neighbors(section) -> Neighbors:
         capacity_multiplier=read_number(
             section, "capacity_multiplier", "neighbors", 1.25, minimum=1.0
         ),
+        spring_skin=read_number(section, "spring_skin", "neighbors", 0.5, minimum=0),
     )
 
 
@@ -973,10 +1168,10 @@ def _polymer_entries(entries) -> list:
 def _read_polymers(
     entries: list, species, solvent: Solvent, spring_room: tuple[float, str, str]
 ) -> tuple[Polymer, ...]:
-    if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann"):
+    if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann", "mpcd"):
         raise ValueError(
-            "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen' or "
-            f"'lattice_boltzmann' (got {solvent.method!r})"
+            "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen', "
+            f"'lattice_boltzmann' or 'mpcd' (got {solvent.method!r})"
         )
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
@@ -1047,12 +1242,55 @@ def _read_integrator(section, solvent: Solvent) -> Integrator:
             "integrator.lambda: the beads in a lattice-Boltzmann solvent move by velocity "
             "Verlet around the friction step (no λ); remove it"
         )
-    default_dt = {"hoogerbrugge_koelman": 1.0, "lattice_boltzmann": solvent.time_step}.get(
-        solvent.method, 0.04
-    )
+    default_dt = {
+        "hoogerbrugge_koelman": 1.0,
+        "lattice_boltzmann": solvent.time_step,
+        "mpcd": solvent.collision_time,
+    }.get(solvent.method, 0.04)
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
+    if solvent.method == "mpcd":
+        h = solvent.collision_time
+        substeps = round(h / dt)
+        if substeps < 1 or abs(substeps * dt - h) > 1e-9 * h:
+            raise ValueError(
+                f"integrator.dt = {dt!r}: the monomer sub-step h_p must divide "
+                f"solvent.collision_time h = {h!r} a whole number of times (h/h_p = "
+                f"{h / dt:.6g}); e.g. dt = {h / max(1, math.ceil(h / dt)):.6g}"
+            )
+        if lam != 0.5:
+            raise ValueError(
+                f"integrator.lambda = {lam!r}: MPCD monomers move by plain velocity "
+                "Verlet (λ = 0.5; Mussawisade et al. §II); remove integrator.lambda"
+            )
     return Integrator(dt=dt, lambda_=lam)
+
+
+def _check_mpcd(solvent: Solvent, lengths, species, polymers, pair) -> None:
+    """Cross-section checks of an MPCD scene (module docstring)."""
+    collision_grid(lengths, solvent.cell_size)
+    chained = {p.species for p in polymers}
+    names = [s.name for s in species]
+    positions = [k for k, name in enumerate(names) if name in chained]
+    if positions and positions[-1] - positions[0] + 1 != len(positions):
+        raise ValueError(
+            f"particles.species: with solvent.method = 'mpcd' the chained species "
+            f"{sorted(chained)} must be adjacent in the species list (monomers form one "
+            f"index range); reorder {names}"
+        )
+    if solvent.collision == "particle" and set(names) != chained:
+        free = [name for name in names if name not in chained]
+        raise ValueError(
+            f"solvent.collision = 'particle' is the solvent-free Rouse variant (every "
+            f"monomer's velocity rotated alone); species {free} are not chained: give "
+            "them [[polymers]] entries, remove them, or use collision = 'cell'"
+        )
+    if pair is not None and not chained:
+        raise ValueError(
+            "pair: with solvent.method = 'mpcd' pair forces act among the [[polymers]] "
+            "species only (solvent particles feel no forces); add [[polymers]] or remove "
+            "the [pair] section"
+        )
 
 
 def _read_run(section) -> Run:
@@ -1064,7 +1302,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
+def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) -> Output:
     check_keys(
         section,
         (
@@ -1077,6 +1315,9 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             "correlator_every",
             "correlator_levels",
             "profile_bins",
+            "current_modes",
+            "spring_pair_bins",
+            "spring_pair_max",
         ),
         "output",
     )
@@ -1107,6 +1348,7 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
         )
     return Output(
         path=read_string(section, "path", "output", None),
+        current_modes=read_number(section, "current_modes", "output", 3, minimum=1, integer=True),
         observables=tuple(dict.fromkeys(observables)),
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
@@ -1118,4 +1360,64 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
         ),
         profile_bins=read_number(section, "profile_bins", "output", 20, minimum=1, integer=True),
+        spring_pair_bins=read_number(
+            section, "spring_pair_bins", "output", 50, minimum=1, integer=True
+        ),
+        spring_pair_max=read_number(
+            section, "spring_pair_max", "output", cutoff / 3, minimum=0, exclusive_minimum=True
+        ),
     )
+
+
+SPRING_REPULSION_PARAMETERS = {
+    "exponential": {"A": 100.0, "alpha": 10.0},
+    "linear": {"a": REQUIRED},
+}
+
+
+def _read_spring_repulsion(section, polymers, cutoff: float) -> SpringRepulsion | None:
+    if section is None:
+        return None
+    path = "spring_repulsion"
+    keys = {k for p in SPRING_REPULSION_PARAMETERS.values() for k in p}
+    check_keys(section, ("law", *keys, "range", "distance_floor"), path)
+    if not polymers:
+        raise ValueError(
+            f"{path}: acts between the springs of chains; add a [[polymers]] section or remove it"
+        )
+    law = read_choice(section, "law", path, SPRING_REPULSION_LAWS, "exponential")
+    defaults = SPRING_REPULSION_PARAMETERS[law]
+    misplaced = sorted(keys & set(section) - set(defaults))
+    if misplaced:
+        raise ValueError(f"{path}: {misplaced} are not parameters of law {law!r}")
+    parameters = tuple(
+        (key, read_number(section, key, path, default, minimum=0, exclusive_minimum=True))
+        for key, default in defaults.items()
+    )
+    reach = read_number(section, "range", path, cutoff / 3, minimum=0, exclusive_minimum=True)
+    floor = read_number(section, "distance_floor", path, 0.001 * cutoff, minimum=0)
+    if not floor < reach:
+        raise ValueError(f"{path}.distance_floor = {floor}: must be below {path}.range = {reach}")
+    return SpringRepulsion(law, parameters, reach, floor)
+
+
+def _check_spring_reach(spring_repulsion, output: Output, neighbors: Neighbors, heights):
+    """Spring pairs are listed by midpoints within ℓ + reach + skin (ℓ: the longest
+    spring), which must stay below half the box's thinnest height: refuse a reach and
+    skin that leave no room for springs."""
+    reaches = []
+    if spring_repulsion is not None:
+        reaches.append(("spring_repulsion.range", spring_repulsion.range))
+    if "spring_pairs" in output.observables:
+        reaches.append(("output.spring_pair_max", output.spring_pair_max))
+    if not reaches:
+        return
+    name, reach = max(reaches, key=lambda item: item[1])
+    half_height = 0.5 * min(heights)
+    if not reach + neighbors.spring_skin < half_height:
+        raise ValueError(
+            f"{name} = {reach}: with neighbors.spring_skin = {neighbors.spring_skin} it must "
+            f"leave room for the springs below half the box's thinnest height "
+            f"({half_height:.4g}; spring pairs are listed by midpoints within spring length "
+            "+ range + skin); enlarge the box or reduce them"
+        )

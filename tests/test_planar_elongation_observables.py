@@ -85,16 +85,19 @@ def test_straight_chain_cut_by_the_deforming_faces_keeps_its_shape(strain):
     block = ChainBlock("chain", 0, 1, beads, fene(30.0, q0, 1.0))
     # One compiled call rather than op-by-op dispatch (much faster to run).
     samples = jax.jit(lambda wrapped: conformation_samples(bound, wrapped, [block]))(positions)
-    samples = {name: float(value) for name, value in samples.items()}
     expected = {
         "chain/bond_length_sq": bond**2,
         "chain/end_to_end_sq": ((beads - 1) * bond) ** 2,
         "chain/gyration_radius_sq": bond**2 * (beads**2 - 1) / 12,
         "chain/fractional_extension": bond / q0,
+        "chain/fractional_extension_sq": (bond / q0) ** 2,
+        # ⟨Q Q⟩ and R_e R_e of a straight chain: the outer products of its direction.
+        "chain/bond_conformation": bond**2 * np.outer(direction, direction),
+        "chain/end_to_end_conformation": ((beads - 1) * bond) ** 2 * np.outer(direction, direction),
     }
     assert samples.keys() == expected.keys()
     for name, value in expected.items():
-        assert samples[name] == pytest.approx(value, rel=1e-12), name
+        np.testing.assert_allclose(samples[name], value, rtol=1e-12, atol=1e-12, err_msg=name)
 
 
 def test_replica_jackknife_gives_the_spread_of_the_relaxation_fit():

@@ -23,10 +23,11 @@ Layout written:
                                 on-device time correlations over the production
     /checkpoint                 the whole state (jaxdpd.io.checkpoint)
 
-Times are step × integrator.dt.  Data carry no H5MD `unit` attribute: jaxdpd works
-in reduced units, which the H5MD units module (SI only) cannot express; the unit of
-each element is given by a `reduced_unit` attribute and the convention by
-/parameters:units.  MDAnalysis therefore opens the files with `convert_units=False`.
+Times are step × scene.step_time (integrator.dt; the collision time h for MPCD).
+Data carry no H5MD `unit` attribute: jaxdpd works in reduced units, which the H5MD
+units module (SI only) cannot express; the unit of each element is given by a
+`reduced_unit` attribute and the convention by /parameters:units.  MDAnalysis
+therefore opens the files with `convert_units=False`.
 g(r) and the time correlations sit under /averages rather than /observables because
 MDAnalysis reads every observable at every frame index.  Time series are written with Fletcher-32
 checksums, so corrupted data raise an error when read.
@@ -219,7 +220,7 @@ class H5MDWriter:
 
     def append_observables(self, first_step: int, series: dict) -> None:
         """Append per-step series (each of length n) for steps first_step+1 … first_step+n."""
-        dt = self.scene.integrator.dt
+        dt = self.scene.step_time
         for name, values in series.items():
             values = np.asarray(values)
             steps = np.arange(first_step + 1, first_step + len(values) + 1, dtype=np.int64)
@@ -237,7 +238,7 @@ class H5MDWriter:
             if position is None:
                 position = group
                 self._extend(group["step"], [step])
-                self._extend(group["time"], [step * self.scene.integrator.dt])
+                self._extend(group["time"], [step * self.scene.step_time])
             self._extend(group["value"], value[None])
         edges = np.asarray(edges, np.float64)
         box_edges = self._series(f"{PARTICLES}/box/edges", edges.shape, edges.dtype, position)
