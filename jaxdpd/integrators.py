@@ -53,8 +53,10 @@ def modified_velocity_verlet(
 
     In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
     terms of jaxdpd.flows are added: streaming in the position update, −L c in
-    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update;
-    the box state advances with the step.  A box at rest traces none of this.
+    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update,
+    then the round-off of the total peculiar momentum is removed (it grows
+    exponentially in elongation); the box state advances with the step.  A box at
+    rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
@@ -87,6 +89,7 @@ def modified_velocity_verlet(
             rate_of_change + acceleration(new_forces)
         )
         velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
+        velocities = flows.remove_momentum_drift(new_bound, velocities, masses)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,

@@ -55,12 +55,18 @@ def initial_configuration(scene, box, dtype, blocks):
         if scene.spring_repulsion is not None:
             _spring_avoiding_walks(rng, unwrapped, blocks, lengths, scene.spring_repulsion.range)
     image = np.floor(unwrapped / lengths).astype(np.int32)
-    positions = np.asarray(unwrapped - image * lengths, dtype)
-    # Rounding to `dtype` can leave a coordinate exactly at L: fold it to 0 and count
-    # the crossing.
-    at_edge = positions >= lengths.astype(dtype)
-    positions = np.where(at_edge, 0, positions).astype(dtype)
-    image = image + at_edge
+    cartesian_at_start = getattr(box, "cartesian_at_start", None)
+    if cartesian_at_start is not None:
+        # A box whose cell is tilted at the start (Kraynik–Reinelt) is filled in its
+        # frame, a rotated copy of space there, and the result is mapped back.
+        positions = np.asarray(cartesian_at_start(unwrapped - image * lengths), dtype)
+    else:
+        positions = np.asarray(unwrapped - image * lengths, dtype)
+        # Rounding to `dtype` can leave a coordinate exactly at L: fold it to 0 and
+        # count the crossing.
+        at_edge = positions >= lengths.astype(dtype)
+        positions = np.where(at_edge, 0, positions).astype(dtype)
+        image = image + at_edge
     kT = scene.solvent.kT if scene.solvent.method != "hoogerbrugge_koelman" else 1.0
     counts = [s.count for s in scene.particles.species]
     species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)

@@ -10,13 +10,18 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     precision   "float32" | "float64"
     cutoff      r_c > 0 of all pair interactions        default 1 (2^(1/6) σ for
                 pair.kind = "wca", which is the only value allowed then)
-    [box]       kind = "periodic" | "lees_edwards" (follows from [flow] when not
-                given); lengths = [Lx, Ly, Lz] (optional, see particles)
+    [box]       kind = "periodic" | "lees_edwards" | "kraynik_reinelt" (follows from
+                [flow] when not given); lengths = [Lx, Ly, Lz] (optional, see
+                particles; a Kraynik–Reinelt box needs Lx = Lz)
     [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
                 oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
-                needs a Lees–Edwards box and solvent.method "dpd" or "mpcd" (MPCD
-                shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress is not
-                symmetric)
+                needs a Lees–Edwards box and solvent.method "dpd", "lowe_andersen" or
+                "mpcd" (MPCD shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress
+                is not symmetric)
+                kind = "planar_elongation": elongation_rate ε̇ (1/time, any sign;
+                u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
+                = 1..4 (lattice of thesis table 3.27, default 1); needs a
+                Kraynik–Reinelt box and solvent.method "dpd" or "lowe_andersen"
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
@@ -129,10 +134,17 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-BOX_KINDS = ("periodic", "lees_edwards")
-FLOW_KINDS = ("shear",)
-BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
+BOX_KINDS = ("periodic", "lees_edwards", "kraynik_reinelt")
+FLOW_KINDS = ("shear", "planar_elongation")
+BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards", "planar_elongation": "kraynik_reinelt"}
+# The fields of each flow kind in the [flow] section.
+FLOW_FIELDS = {
+    "shear": ("shear_rate", "oscillation_frequency"),
+    "planar_elongation": ("elongation_rate", "kraynik_reinelt_case"),
+}
 FLOW_SOLVENTS = ("dpd", "lowe_andersen", "mpcd")
+# Solvents with a Kraynik–Reinelt (planar elongation) step: the pair-based ones.
+ELONGATION_SOLVENTS = ("dpd", "lowe_andersen")
 OBSERVABLES = (
     "temperature",
     "pressure",
@@ -180,14 +192,18 @@ class Flow:
     """An imposed homogeneous flow (SLLOD with flow-adapted boundaries).
 
     Attributes:
-        kind: "shear".
-        shear_rate: γ̇ (its amplitude for an oscillatory shear), 1/time.
+        kind: "shear" or "planar_elongation".
+        shear_rate: γ̇ (its amplitude for an oscillatory shear), 1/time (shear).
         oscillation_frequency: ω of γ̇(t) = γ̇ cos(ω t), or None for steady shear.
+        elongation_rate: ε̇, 1/time (planar elongation: z stretches, x compresses).
+        kraynik_reinelt_case: the lattice orientation of thesis table 3.27 (1–4).
     """
 
     kind: str
-    shear_rate: float
+    shear_rate: float = 0.0
     oscillation_frequency: float | None = None
+    elongation_rate: float = 0.0
+    kraynik_reinelt_case: int = 1
 
 
 @dataclass(frozen=True)
@@ -440,7 +456,7 @@ class Scene:
         heights = make_box(box_kind, lengths, flow).cell_heights
         for axis, length, height in zip("xyz", lengths, heights, strict=True):
             if not height > 2 * list_cutoff:
-                tilted = f" (its thickness {height:.4g} at the largest shear tilt)"
+                tilted = f" (its thinnest cell height {height:.4g} as the box deforms)"
                 raise ValueError(
                     f"box.lengths: L_{axis} = {length:.4g}{tilted if height != length else ''} "
                     f"must exceed 2 ({range_name} + neighbors.skin) = {2 * list_cutoff:.4g}; "
@@ -457,7 +473,14 @@ class Scene:
         _check_collision_probability(solvent, integrator)
         if solvent.method == "lattice_boltzmann":
             _check_lattice(solvent, lengths, integrator)
-        polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
+        # Springs must stay shorter than half the box for their minimum image to be
+        # unique: half the shortest edge, or half the thinnest Kraynik–Reinelt cell.
+        spring_room = (
+            (min(heights), "the thinnest Kraynik–Reinelt cell", "thesis §3.4.3")
+            if box_kind == "kraynik_reinelt"
+            else (min(lengths), "the shortest box edge", "thesis §3.2.3")
+        )
+        polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
         if solvent.method == "mpcd":
             _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
@@ -592,8 +615,15 @@ class Scene:
             data["spring_repulsion"] = self.spring_repulsion.table()
         if self.flow is None:
             del data["flow"]
-        elif self.flow.oscillation_frequency is None:
-            del data["flow"]["oscillation_frequency"]
+        else:
+            data["flow"] = {
+                "kind": self.flow.kind,
+                **{
+                    name: value
+                    for name in FLOW_FIELDS[self.flow.kind]
+                    if (value := getattr(self.flow, name)) is not None
+                },
+            }
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
         if self.neighbors.method == "all_pairs":
@@ -844,8 +874,14 @@ def _kind(section: Flow | BodyForce | None) -> str | None:
 def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     if section is None:
         return None
-    check_keys(section, ("kind", "shear_rate", "oscillation_frequency"), "flow")
+    check_keys(section, ("kind", *{f for fields in FLOW_FIELDS.values() for f in fields}), "flow")
     kind = read_choice(section, "kind", "flow", FLOW_KINDS)
+    misplaced = sorted(set(section) - {"kind", *FLOW_FIELDS[kind]})
+    if misplaced:
+        raise ValueError(
+            f"flow: {misplaced} do not belong to flow.kind = {kind!r}; its fields are "
+            f"{list(FLOW_FIELDS[kind])}"
+        )
     if solvent.method not in FLOW_SOLVENTS:
         raise ValueError(
             f"flow: solvent.method = {solvent.method!r} has no SLLOD integrator; use one "
@@ -854,7 +890,21 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     if neighbors.method != "cell_list":
         raise ValueError(
             f"neighbors.method = {neighbors.method!r}: only the cell list knows the "
-            "Lees–Edwards boundary; use neighbors.method = 'cell_list' with a [flow]"
+            "Lees–Edwards and Kraynik–Reinelt boundaries; use neighbors.method = "
+            "'cell_list' with a [flow]"
+        )
+    if kind == "planar_elongation":
+        if solvent.method not in ELONGATION_SOLVENTS:
+            raise ValueError(
+                f"flow: solvent.method = {solvent.method!r} has no Kraynik–Reinelt step; "
+                f"planar elongation needs one of {list(ELONGATION_SOLVENTS)}"
+            )
+        return Flow(
+            kind,
+            elongation_rate=read_number(section, "elongation_rate", "flow"),
+            kraynik_reinelt_case=read_number(
+                section, "kraynik_reinelt_case", "flow", 1, minimum=1, maximum=4, integer=True
+            ),
         )
     shear_rate = read_number(section, "shear_rate", "flow")
     frequency = read_number(
@@ -1115,7 +1165,9 @@ def _polymer_entries(entries) -> list:
     return entries
 
 
-def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
+def _read_polymers(
+    entries: list, species, solvent: Solvent, spring_room: tuple[float, str, str]
+) -> tuple[Polymer, ...]:
     if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann", "mpcd"):
         raise ValueError(
             "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen', "
@@ -1140,12 +1192,14 @@ def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[P
                 f"chains of {path}.beads = {beads}; give a count that is a positive multiple "
                 f"of {beads}"
             )
-        bond = _read_bond(entry.get("bond"), f"{path}.bond", lengths)
+        bond = _read_bond(entry.get("bond"), f"{path}.bond", spring_room)
         polymers.append(Polymer(name, beads, tuple(bond.items())))
     return tuple(polymers)
 
 
-def _read_bond(section, path: str, lengths) -> dict:
+def _read_bond(section, path: str, spring_room: tuple[float, str, str]) -> dict:
+    """The bond table; `spring_room` is (twice the longest spring the box allows,
+    what that length is, its reference)."""
     if section is None:
         raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
     check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
@@ -1160,10 +1214,11 @@ def _read_bond(section, path: str, lengths) -> dict:
         bond[key] = read_number(
             section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
         )
-    if "max_extension" in bond and not bond["max_extension"] < min(lengths) / 2:
+    room, room_name, reference = spring_room
+    if "max_extension" in bond and not bond["max_extension"] < room / 2:
         raise ValueError(
             f"{path}.max_extension = {bond['max_extension']}: a spring must stay shorter "
-            f"than half the shortest box edge ({min(lengths) / 2:.4g}; thesis §3.2.3); "
+            f"than half {room_name} ({room / 2:.4g}; {reference}); "
             "enlarge the box or shorten the spring"
         )
     if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
