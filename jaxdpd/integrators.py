@@ -37,7 +37,14 @@ def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
 
 
 def modified_velocity_verlet(
-    box, dt: float, lambda_: float, interactions, kT: float, dtype, masses=None
+    box,
+    dt: float,
+    lambda_: float,
+    interactions,
+    kT: float,
+    dtype,
+    masses=None,
+    closed_system: bool = True,
 ):
     """Groot–Warren modified velocity Verlet (thesis eq. 2.10), a = f/m:
 
@@ -54,8 +61,10 @@ def modified_velocity_verlet(
     In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
     terms of jaxdpd.flows are added: streaming in the position update, −L c in
     the accelerations (also in the predicted ṽ), trapezoidal in the velocity update,
-    then the round-off of the total peculiar momentum is removed (it grows
-    exponentially in elongation); the box state advances with the step.  A box at
+    then, if `closed_system` (the particles stepped are all there are), the
+    round-off of the total peculiar momentum is removed (it grows exponentially in
+    elongation); the box state advances with the step.  MPCD monomers are not a
+    closed system (they exchange momentum with the solvent in the collisions).  A box at
     rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
@@ -89,7 +98,8 @@ def modified_velocity_verlet(
             rate_of_change + acceleration(new_forces)
         )
         velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
-        velocities = flows.remove_momentum_drift(new_bound, velocities, masses)
+        if closed_system:
+            velocities = flows.remove_momentum_drift(new_bound, velocities, masses)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,

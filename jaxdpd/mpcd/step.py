@@ -41,7 +41,14 @@ def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dty
         monomer_range = (first, stop)
         monomer_masses = None if masses is None else masses[first:stop]
         monomer_step = modified_velocity_verlet(
-            box, scene.integrator.dt, 0.5, interactions, solvent.kT, dtype, monomer_masses
+            box,
+            scene.integrator.dt,
+            0.5,
+            interactions,
+            solvent.kT,
+            dtype,
+            monomer_masses,
+            closed_system=False,
         )
     substeps = round(h / scene.integrator.dt)
     assert math.isclose(substeps * scene.integrator.dt, h, rel_tol=1e-9)  # validated
