@@ -449,43 +449,61 @@ def markdown_table(rows) -> str:
 
 
 def plot(rows, path):
+    """Log-log |relative error| against cost per element and time unit: a colour per
+    method, a marker per observable, filled where the error is resolved (> 2σ), and
+    each (method, observable)'s Pareto front as a line through its ringed points."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, axes = plt.subplots(figsize=(8, 5.5))
+    floor = 1e-5  # where unresolved errors near zero are drawn on the log axis
+    figure, axes = plt.subplots(figsize=(10, 5.5))
     markers = dict(zip(dict.fromkeys(r["observable"] for r in rows), "osD^vP*X", strict=False))
     colors = dict(zip(dict.fromkeys(r["method"] for r in rows), plt.cm.tab10.colors, strict=False))
-    labelled = set()
+    groups = {}
     for row in rows:
-        x = row["wall_us_per_element_time_unit"]
-        y = abs(row["rel_error_%"]) / 100
-        sigma = row["rel_error_err_%"] / 100
-        resolved = abs(row["rel_error_%"]) > 2 * row["rel_error_err_%"]
-        label = f"{row['method']}: {row['observable']}"
-        color = colors[row["method"]]
-        axes.errorbar(
-            x,
-            max(y, 1e-5),
-            yerr=[[min(sigma, max(y, 1e-5) - 1e-5)], [sigma]],
-            color=color,
-            marker=markers[row["observable"]],
-            markersize=8 if row["pareto"] else 5,
-            markerfacecolor=color if resolved else "white",
-            markeredgecolor="black" if row["pareto"] else color,
-            linestyle="none",
-            label=None if label in labelled else label,
-            capsize=2,
+        groups.setdefault((row["method"], row["observable"]), []).append(row)
+    for (method, observable), group in groups.items():
+        color, marker = colors[method], markers[observable]
+        for index, row in enumerate(group):
+            x = row["wall_us_per_element_time_unit"]
+            y = max(abs(row["rel_error_%"]) / 100, floor)
+            sigma = row["rel_error_err_%"] / 100
+            resolved = abs(row["rel_error_%"]) > 2 * row["rel_error_err_%"]
+            axes.errorbar(
+                x,
+                y,
+                yerr=[[min(sigma, y - floor)], [sigma]],
+                color=color,
+                marker=marker,
+                markerfacecolor=color if resolved else "white",
+                markeredgecolor=color,
+                linestyle="none",
+                capsize=2,
+                label=f"{method}: {observable}" if index == 0 else None,
+            )
+            if row["pareto"]:
+                axes.plot(
+                    x, y, marker="o", markersize=13, markerfacecolor="none", markeredgecolor="black"
+                )
+        front = sorted(
+            (r for r in group if r["pareto"]), key=lambda r: r["wall_us_per_element_time_unit"]
         )
-        labelled.add(label)
+        axes.plot(
+            [r["wall_us_per_element_time_unit"] for r in front],
+            [max(abs(r["rel_error_%"]) / 100, floor) for r in front],
+            color=color,
+            linewidth=1,
+            alpha=0.6,
+        )
     axes.axhline(ACCEPTABLE, color="grey", linestyle=":", linewidth=1)
     axes.set_xscale("log")
     axes.set_yscale("log")
     axes.set_xlabel("cost: wall µs per element (particle, dumbbell, lattice node) per time unit")
-    axes.set_ylabel("|relative error| (bars: 1 standard error)")
-    axes.set_title("Accuracy against cost (black edge: Pareto-optimal; open: not resolved at 2σ)")
-    axes.legend(fontsize=7, loc="best")
+    axes.set_ylabel("|relative error|  (bars: 1 standard error)")
+    axes.set_title("Accuracy against cost (ringed + line: Pareto front; open: not resolved at 2σ)")
+    axes.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     figure.tight_layout()
     figure.savefig(path, dpi=110)
 
