@@ -8,11 +8,13 @@ chunk (each size runs in its own process).
 The peak resident set size is reported with the bytes XLA's compiled chunk needs
 (arguments, outputs and temporaries, from `memory_analysis()`), which is the
 per-particle memory proper: the process RSS also holds the JAX runtime and compiler.
-The comparison with LAMMPS is `benchmarks/peer_lammps.py`.
+With `--peer lammps` the same sizes then run alternately with LAMMPS
+(`benchmarks/peer_lammps.py`, float32 jaxdpd; skipped with a message where LAMMPS is
+absent).
 
 Usage:
     python benchmarks/dpd_throughput.py [--sizes 3000 24000 96000]
-        [--precisions float32 float64] [--steps 200]
+        [--precisions float32 float64] [--steps 100] [--peer lammps]
 Writes benchmarks/results/dpd_throughput.json.
 """
 
@@ -126,6 +128,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--chunks", type=int, default=3, help="timed chunks (best counts)")
     parser.add_argument("--equilibration", type=int, default=200)
+    parser.add_argument("--peer", choices=["lammps"], default=None)
     args = parser.parse_args()
     rows = []
     for precision in args.precisions:
@@ -154,6 +157,10 @@ def main() -> None:
     print_table(columns, rows)
     path = write_json("dpd_throughput", {"steps": args.steps, "rows": rows})
     print(f"wrote {path}")
+    if args.peer == "lammps":
+        from peer_lammps import run_comparison  # imports this module: import late
+
+        run_comparison(args.sizes, steps=args.steps, equilibration=args.equilibration)
 
 
 if __name__ == "__main__":

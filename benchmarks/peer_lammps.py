@@ -129,21 +129,25 @@ def compare(lammps, n: int, args) -> list[dict]:
     return rows
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", type=int, nargs="+", default=[3000, 24000, 96000])
-    parser.add_argument("--precision", choices=["float32", "float64"], default="float32")
-    parser.add_argument("--steps", type=int, default=100, help="steps per timed chunk")
-    parser.add_argument("--rounds", type=int, default=4, help="alternations of the codes")
-    parser.add_argument("--equilibration", type=int, default=300)
-    parser.add_argument("--threads", type=int, default=os.cpu_count() or 1)
-    args = parser.parse_args()
+def run_comparison(
+    sizes, precision="float32", steps=100, rounds=4, equilibration=300, threads=None
+):
+    """Alternate jaxdpd and LAMMPS at every size; print the table and write
+    benchmarks/results/peer_lammps.json.  Returns the rows ([] without LAMMPS)."""
     lammps = import_lammps()
     if lammps is None:
-        return
+        return []
+    threads = threads or os.cpu_count() or 1
+    settings = argparse.Namespace(
+        precision=precision,
+        steps=steps,
+        rounds=rounds,
+        equilibration=equilibration,
+        threads=threads,
+    )
     rows = []
-    for n in args.sizes:
-        rows.extend(compare(lammps, n, args))
+    for n in sizes:
+        rows.extend(compare(lammps, n, settings))
         print_table(list(rows[-2]), rows[-2:])
     columns = [
         "code",
@@ -159,8 +163,23 @@ def main() -> None:
     ]
     print()
     print_table(columns, rows)
-    payload = {"threads": args.threads, "steps": args.steps, "rounds": args.rounds, "rows": rows}
+    payload = {"threads": threads, "steps": steps, "rounds": rounds, "rows": rows}
     print(f"wrote {write_json('peer_lammps', payload)}")
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[3000, 24000, 96000])
+    parser.add_argument("--precision", choices=["float32", "float64"], default="float32")
+    parser.add_argument("--steps", type=int, default=100, help="steps per timed chunk")
+    parser.add_argument("--rounds", type=int, default=4, help="alternations of the codes")
+    parser.add_argument("--equilibration", type=int, default=300)
+    parser.add_argument("--threads", type=int, default=os.cpu_count() or 1)
+    args = parser.parse_args()
+    run_comparison(
+        args.sizes, args.precision, args.steps, args.rounds, args.equilibration, args.threads
+    )
 
 
 if __name__ == "__main__":

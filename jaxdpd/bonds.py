@@ -21,9 +21,15 @@ Laws (H, K, k: spring constants in k_BT/r_c²; Q0, R0, r_eq, σ: lengths in r_c)
 A FENE spring cannot reach Q0: where a step takes it there the stiffness is
 evaluated at a floor of the denominator (finite), and `overstretched` reports it so
 that the driver stops with a message instead of producing NaNs.
+
+Every law is a pure function of q² and its named parameters (`LAW_FORMS`), so the
+parameters may also be traced arrays: `BondLaw.with_parameters` binds values taken
+from `SimState.parameters` inside a step (one compiled step for every spring
+constant; vmap over parameter sets; derivatives with respect to a parameter).
 """
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -61,6 +67,34 @@ class BondLaw:
     max_extension: float | None
     placement_length: float
 
+    def with_parameters(self, values: dict) -> "BondLaw":
+        """The same law with its parameters bound to `values` (e.g. traced arrays).
+
+        Args:
+            values: parameter name → value (scalar array), the keys of `parameters`.
+        Returns:
+            A BondLaw whose stiffness, energy and max_extension use `values`
+            (placement_length stays the host-side value of the scene's parameters).
+        """
+        stiffness, energy = LAW_FORMS[self.name]
+        return dataclasses.replace(
+            self,
+            parameters=dict(values),
+            stiffness=functools.partial(stiffness, **values),
+            energy=functools.partial(energy, **values),
+            max_extension=values.get("max_extension") if self.max_extension is not None else None,
+        )
+
+
+def _hookean_stiffness(q_sq, spring_constant):
+    """H (the same at every length)."""
+    return spring_constant * jnp.ones_like(q_sq)
+
+
+def _hookean_energy(q_sq, spring_constant):
+    """½ H Q²."""
+    return 0.5 * spring_constant * q_sq
+
 
 def hookean(spring_constant: float, kT: float) -> BondLaw:
     """Hookean spring T = H Q; free ⟨Q²⟩ = 3 k_BT/H."""
@@ -68,11 +102,22 @@ def hookean(spring_constant: float, kT: float) -> BondLaw:
     return BondLaw(
         "hookean",
         {"spring_constant": h},
-        lambda q_sq: h * jnp.ones_like(q_sq),
-        lambda q_sq: 0.5 * h * q_sq,
+        functools.partial(_hookean_stiffness, spring_constant=h),
+        functools.partial(_hookean_energy, spring_constant=h),
         None,
         math.sqrt(3 * kT / h),
     )
+
+
+def _fraenkel_stiffness(q_sq, spring_constant, rest_length):
+    """K (1 − r_eq/Q), with Q floored at the smallest normal number."""
+    length = jnp.sqrt(jnp.maximum(q_sq, jnp.finfo(q_sq.dtype).tiny))
+    return spring_constant * (1 - rest_length / length)
+
+
+def _fraenkel_energy(q_sq, spring_constant, rest_length):
+    """½ K (Q − r_eq)²."""
+    return 0.5 * spring_constant * (jnp.sqrt(q_sq) - rest_length) ** 2
 
 
 def fraenkel(spring_constant: float, rest_length: float, kT: float) -> BondLaw:
@@ -82,20 +127,13 @@ def fraenkel(spring_constant: float, rest_length: float, kT: float) -> BondLaw:
     at a tiny length instead (a configuration that thermal motion never reaches).
     """
     k, rest = spring_constant, rest_length
-
-    def stiffness(q_sq):
-        length = jnp.sqrt(jnp.maximum(q_sq, jnp.finfo(q_sq.dtype).tiny))
-        return k * (1 - rest / length)
-
-    def energy(q_sq):
-        return 0.5 * k * (jnp.sqrt(q_sq) - rest) ** 2
-
     placement = rest if rest > 0 else math.sqrt(3 * kT / k)
+    values = {"spring_constant": k, "rest_length": rest}
     return BondLaw(
         "fraenkel",
-        {"spring_constant": k, "rest_length": rest},
-        stiffness,
-        energy,
+        values,
+        functools.partial(_fraenkel_stiffness, **values),
+        functools.partial(_fraenkel_energy, **values),
         None,
         placement,
     )
@@ -118,13 +156,28 @@ def fene(spring_constant: float, max_extension: float, kT: float) -> BondLaw:
     (thesis eq. 4.8)."""
     h, q0 = spring_constant, max_extension
     b = h * q0 * q0 / kT
+    values = {"spring_constant": h, "max_extension": q0}
     return BondLaw(
         "fene",
-        {"spring_constant": h, "max_extension": q0},
-        lambda q_sq: _fene_stiffness(q_sq, h, q0),
-        lambda q_sq: _fene_energy(q_sq, h, q0),
+        values,
+        functools.partial(_fene_stiffness, **values),
+        functools.partial(_fene_energy, **values),
         q0,
         q0 * math.sqrt(3 / (b + 5)),
+    )
+
+
+def _fene_log_wca_stiffness(q_sq, spring_constant, max_extension, wca_epsilon, wca_sigma):
+    """FENE stiffness plus the WCA force F/Q, a push: a negative tension."""
+    return _fene_stiffness(q_sq, spring_constant, max_extension) - wca_force_over_distance(
+        q_sq, wca_epsilon, wca_sigma
+    )
+
+
+def _fene_log_wca_energy(q_sq, spring_constant, max_extension, wca_epsilon, wca_sigma):
+    """FENE log energy plus the WCA energy 4ε[(σ/Q)¹² − (σ/Q)⁶ + ¼] inside 2^{1/6}σ."""
+    return _fene_energy(q_sq, spring_constant, max_extension) + wca_energy(
+        q_sq, wca_epsilon, wca_sigma
     )
 
 
@@ -135,33 +188,36 @@ def fene_log_wca(
     bonded beads (Ahlrichs & Dünweg eq. 8)."""
     k, r0, eps, sigma = spring_constant, max_extension, wca_epsilon, wca_sigma
     wca_range_sq = 2 ** (1 / 3) * sigma * sigma
-
-    def stiffness(q_sq):
-        # The WCA force F/Q is a push: a negative tension.
-        return _fene_stiffness(q_sq, k, r0) - wca_force_over_distance(q_sq, eps, sigma)
-
-    def energy(q_sq):
-        return _fene_energy(q_sq, k, r0) + wca_energy(q_sq, eps, sigma)
-
     lengths = [r0 * x / 1000 for x in range(1, 1000)]
     energies = [
         -0.5 * k * r0 * r0 * math.log1p(-((q / r0) ** 2))
         + (4 * eps * ((sigma / q) ** 12 - (sigma / q) ** 6 + 0.25) if q * q < wca_range_sq else 0)
         for q in lengths
     ]
+    values = {
+        "spring_constant": k,
+        "max_extension": r0,
+        "wca_epsilon": eps,
+        "wca_sigma": sigma,
+    }
     return BondLaw(
         "fene_log_wca",
-        {
-            "spring_constant": k,
-            "max_extension": r0,
-            "wca_epsilon": eps,
-            "wca_sigma": sigma,
-        },
-        stiffness,
-        energy,
+        values,
+        functools.partial(_fene_log_wca_stiffness, **values),
+        functools.partial(_fene_log_wca_energy, **values),
         r0,
         lengths[energies.index(min(energies))],
     )
+
+
+# law name → (stiffness(q_sq, **parameters), energy(q_sq, **parameters)).
+LAW_FORMS = {
+    "hookean": (_hookean_stiffness, _hookean_energy),
+    "fraenkel": (_fraenkel_stiffness, _fraenkel_energy),
+    "harmonic": (_fraenkel_stiffness, _fraenkel_energy),
+    "fene": (_fene_stiffness, _fene_energy),
+    "fene_log_wca": (_fene_log_wca_stiffness, _fene_log_wca_energy),
+}
 
 
 def bond_law(parameters: dict, kT: float) -> BondLaw:

@@ -123,9 +123,7 @@ def run_chunk(simulation, state, length: int):
         # Only a pure overflow is cured by larger buffers; with any other error the
         # configuration itself is broken and reallocating would only waste time.
         if flags == errors.NEIGHBOR_OVERFLOW and attempt < MAX_REALLOCATIONS:
-            needs = new_state.pair_list
-            minimum = (int(needs.needed_pairs), int(needs.needed_cell_occupancy))
-            state = simulation.reallocate(state, minimum)
+            state = simulation.reallocate(state, simulation.buffer_needs(new_state))
             continue
         if flags:
             raise errors.SimulationError(

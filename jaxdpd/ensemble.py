@@ -2,9 +2,10 @@
 
 A batch is a SimState whose every leaf has a leading replica axis B.  Replicas share
 the scene's static structure (particle number, neighbour-buffer capacities) and may
-differ in anything traced: seed (noise), initial configuration, shear rate (each
-Lees–Edwards replica keeps its own offset), ...  A flow curve is one batch with one
-shear rate per replica.
+differ in anything traced: seed (noise), initial configuration, flow rate (each
+Lees–Edwards replica keeps its own offset, each Kraynik–Reinelt replica its own
+strain), ...  A flow curve is one batch with one shear or elongation rate per
+replica.
 
 The batch axis is sharded over all local devices (`jax.sharding`) when B is a
 multiple of the device count, so the same call uses every GPU, or every CPU device
@@ -24,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from jaxdpd import errors
+from jaxdpd import errors, flows
 from jaxdpd.driver import MAX_REALLOCATIONS, ChunkResult
 from jaxdpd.observables.thermo import reduce_samples
 
@@ -45,51 +46,60 @@ def _common_buffers(simulation, states: list, minimum=None) -> list:
     needs = minimum
     for _ in range(MAX_REALLOCATIONS + 1):
         states = [simulation.reallocate(s, needs) for s in states]
-        shapes = {(s.pair_list.capacity, s.pair_list.cell_capacity) for s in states}
-        if len(shapes) == 1:
+        if len({simulation.buffer_shapes(s) for s in states}) == 1:
             return states
-        needs = (
-            max(int(s.pair_list.needed_pairs) for s in states),
-            max(int(s.pair_list.needed_cell_occupancy) for s in states),
-        )
+        # Buffers differ in shape here, so the replicas cannot be stacked: the largest
+        # need of each kind over the replicas.
+        needs = tuple(np.max(v) for v in zip(*map(simulation.buffer_needs, states), strict=True))
     raise AssertionError("neighbour buffers of the replicas did not converge to one shape")
 
 
-def replicate(simulation, state, count: int | None = None, seeds=None, shear_rates=None):
-    """A batch of replicas of `state` with their own seeds and shear rates.
+def replicate(
+    simulation, state, count: int | None = None, seeds=None, flow_rates=None, shear_rates=None
+):
+    """A batch of replicas of `state` with their own seeds and flow rates.
 
     Args:
         simulation: from jaxdpd.simulation.build.
         state: a single state (e.g. `simulation.init_fn()` or an equilibrated one),
             or a sequence of states (one per replica).
-        count: number of replicas B (default: the length of seeds or shear_rates).
+        count: number of replicas B (default: the length of seeds or the rates).
         seeds: B noise seeds (uint32); default: the state's seed plus 0, 1, ...
-        shear_rates: B shear rates γ̇ (needs a scene with a [flow] of kind "shear").
+        flow_rates: B rates of the scene's flow: shear rates γ̇ ([flow] kind
+            "shear") or elongation rates ε̇ (kind "planar_elongation").
+        shear_rates: B shear rates γ̇, for a scene with a [flow] of kind "shear"
+            (the same as flow_rates there).
     Returns:
         The batched SimState with buffers of one common shape.
     """
+    flow = simulation.scene.flow
+    if shear_rates is not None:
+        if flow is None or flow.kind != "shear":
+            raise ValueError("replicate: shear_rates need a scene with a [flow] of kind 'shear'")
+        if flow_rates is not None:
+            raise ValueError("replicate: give flow_rates or shear_rates, not both")
+        flow_rates = shear_rates
+    if flow_rates is not None and flow is None:
+        raise ValueError("replicate: flow_rates need a scene with a [flow] section")
     states = list(state) if isinstance(state, (list, tuple)) else None
     if count is None:
         count = next(
-            (len(x) for x in (states, seeds, shear_rates) if x is not None),
+            (len(x) for x in (states, seeds, flow_rates) if x is not None),
             None,
         )
     if count is None or count < 1:
-        raise ValueError("replicate: give count ≥ 1, seeds or shear_rates")
-    for name, values in (("seeds", seeds), ("shear_rates", shear_rates), ("states", states)):
+        raise ValueError("replicate: give count ≥ 1, seeds or flow_rates")
+    for name, values in (("seeds", seeds), ("flow rates", flow_rates), ("states", states)):
         if values is not None and len(values) != count:
             raise ValueError(f"replicate: {len(values)} {name} for {count} replicas")
-    if shear_rates is not None and simulation.scene.flow is None:
-        raise ValueError("replicate: shear_rates need a scene with a [flow] of kind 'shear'")
     states = states or [state] * count
     if seeds is None:
         seeds = [int(states[0].seed) + k for k in range(count)]
     replicas = []
     for k, replica in enumerate(states):
         replica = replica.set(seed=jnp.asarray(seeds[k], jnp.uint32))
-        if shear_rates is not None:
-            rate = jnp.asarray(shear_rates[k], simulation.dtype)
-            replica = replica.set(box_state=replica.box_state.set(shear_rate=rate))
+        if flow_rates is not None:
+            replica = flows.set_flow_rate(replica, flow.kind, flow_rates[k])
         replicas.append(replica)
     return stack(_common_buffers(simulation, replicas))
 
@@ -134,8 +144,7 @@ def run_chunk(simulation, batch, length: int):
         overflowed = (flags & errors.NEIGHBOR_OVERFLOW) != 0
         broken = (flags & ~errors.NEIGHBOR_OVERFLOW) != 0
         if overflowed.any() and not broken.any() and attempt < MAX_REALLOCATIONS:
-            needs = new_batch.pair_list
-            minimum = (int(np.max(needs.needed_pairs)), int(np.max(needs.needed_cell_occupancy)))
+            minimum = simulation.buffer_needs(new_batch)
             resized = stack(_common_buffers(simulation, unstack(batch), minimum))
             batch = shard(resized) if batch_sharding(len(flags)) is not None else resized
             continue

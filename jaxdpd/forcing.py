@@ -10,6 +10,16 @@ Measuring the amplitude gives η = ρ F / (k² A) independently of any shear bou
 (Backer, Lowe, Hoefsloot & Iedema, J. Chem. Phys. 122, 154503 (2005)).  The force
 does work, so it needs a thermostat; it is no pair force and adds nothing to the
 virial.
+
+Tagged-particle forcing (the drag coefficient, thesis §4.2.4): a force F x̂ on each
+of the k particles of one species and −k F/(N − k) x̂ on every other particle, so the
+total force vanishes and momentum is conserved (the thesis's −F_b/(N − 1) for k = 1).
+The tagged particles drift through the rest with ⟨v_T − v_R⟩ = F/ζ
+(jaxdpd.observables.drag).
+
+Both factories return `force(positions, amplitude) -> (N, 3)`; the amplitude is read
+from `SimState.parameters["body_force"]` (jaxdpd.parameters), so it may differ
+between the replicas of an ensemble.
 """
 
 import math
@@ -22,20 +32,52 @@ def cosine_wavenumber(length_y: float, waves: int) -> float:
     return 2 * math.pi * waves / length_y
 
 
-def cosine_body_force(amplitude: float, waves: int, length_y: float, dtype):
-    """`force(positions) -> (N, 3)` of the cosine forcing along x, varying along y.
+def cosine_body_force(waves: int, length_y: float, dtype):
+    """`force(positions, amplitude) -> (N, 3)` of the cosine forcing along x, varying
+    along y.
 
     Args:
-        amplitude: F, force per particle (energy/length).
         waves: n ≥ 1 periods across the box.
         length_y: L_y.
         dtype: floating dtype of the simulation.
+    Returns:
+        The force law; `amplitude` is F, force per particle (energy/length).
     """
     k = jnp.asarray(cosine_wavenumber(length_y, waves), dtype)
-    force = jnp.asarray(amplitude, dtype)
 
-    def body_force(positions):
-        f_x = force * jnp.cos(k * positions[:, 1])
+    def body_force(positions, amplitude):
+        f_x = amplitude * jnp.cos(k * positions[:, 1])
+        return jnp.zeros_like(positions).at[:, 0].set(f_x)
+
+    return body_force
+
+
+def tagged_body_force(first: int, count: int, n_particles: int, dtype):
+    """`force(positions, amplitude) -> (N, 3)`: F x̂ on the tagged particles
+    `first .. first + count − 1`, −F count/(N − count) x̂ on all others (thesis
+    §4.2.4).
+
+    The forces sum to zero up to round-off (a relative 1e-7 of F in float32), so the
+    total momentum is conserved.
+
+    Args:
+        first: index of the first tagged particle.
+        count: k ≥ 1 tagged particles (contiguous, e.g. one species).
+        n_particles: N > k.
+        dtype: floating dtype of the simulation.
+    Returns:
+        The force law; `amplitude` is F (energy/length) on each tagged particle.
+    """
+    if not 1 <= count < n_particles or not 0 <= first <= n_particles - count:
+        raise ValueError(
+            f"tagged_body_force: particles {first}..{first + count - 1} must be a non-empty "
+            f"part of the N = {n_particles} particles, leaving at least one untagged"
+        )
+    tagged = jnp.zeros(n_particles, bool).at[first : first + count].set(True)
+    compensation = jnp.asarray(-count / (n_particles - count), dtype)
+
+    def body_force(positions, amplitude):
+        f_x = amplitude * jnp.where(tagged, jnp.asarray(1, dtype), compensation)
         return jnp.zeros_like(positions).at[:, 0].set(f_x)
 
     return body_force

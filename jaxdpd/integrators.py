@@ -1,9 +1,11 @@
 """Time integrators.  Each factory returns `step(state) -> state`.
 
-`interactions(positions, velocities, state) -> (vectors, virial, pair_list, bits)` is
+`interactions(positions, velocities, state) -> (vectors, virial, state, bits)` is
 the composed force kernel of the scene (forces for velocity Verlet, impulses for the
-Hoogerbrugge–Koelman collision); it refreshes the neighbour list itself and reports
-error bits of its own (e.g. an overstretched spring).
+Hoogerbrugge–Koelman collision); it refreshes the neighbour lists itself (it returns
+`state` with them refreshed: the pair list, and the spring-pair list where there is
+one) and reports error bits of its own (e.g. an overstretched spring, a spring-pair
+list overflow).
 """
 
 import jax
@@ -51,8 +53,10 @@ def modified_velocity_verlet(
 
     In a flowing box (shear, elongation) v is the peculiar velocity and the SLLOD
     terms of jaxdpd.flows are added: streaming in the position update, −L c in
-    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update;
-    the box state advances with the step.  A box at rest traces none of this.
+    the accelerations (also in the predicted ṽ), trapezoidal in the velocity update,
+    then the round-off of the total peculiar momentum is removed (it grows
+    exponentially in elongation); the box state advances with the step.  A box at
+    rest traces none of this.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
@@ -80,18 +84,18 @@ def modified_velocity_verlet(
         advanced = state.set(
             positions=positions, image=image, box_state=box_state, step=state.step + 1
         )
-        new_forces, virial, pair_list, bits = interactions(positions, predicted, advanced)
+        new_forces, virial, advanced, bits = interactions(positions, predicted, advanced)
         right_hand_side = state.velocities + (0.5 * dt_) * (
             rate_of_change + acceleration(new_forces)
         )
         velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
+        velocities = flows.remove_momentum_drift(new_bound, velocities, masses)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
-            pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits, masses),
+            flags=_flag(state, positions, velocities, advanced.pair_list, kT, bits, masses),
         )
 
     return step
@@ -156,18 +160,17 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
     dt_ = jnp.asarray(dt, dtype)
 
     def step(state):
-        impulses, virial, pair_list, bits = interactions(state.positions, state.velocities, state)
+        impulses, virial, refreshed, bits = interactions(state.positions, state.velocities, state)
         velocities = state.velocities + impulses
         positions, image = box.wrap(state.positions + dt_ * velocities, state.image)
-        return state.set(
+        return refreshed.set(
             positions=positions,
             velocities=velocities,
             image=image,
-            pair_list=pair_list,
             virial={part: w / dt_ for part, w in virial.items()},
             step=state.step + 1,
             time=state.time + dt_,
-            flags=_flag(state, positions, velocities, pair_list, kT, bits),
+            flags=_flag(state, positions, velocities, refreshed.pair_list, kT, bits),
         )
 
     return step

@@ -13,12 +13,21 @@ image) from all earlier ones, except a chain bead from its predecessor: chains g
 as self-avoiding walks (a trapped chain is regrown), free particles are drawn until
 they fit.
 
+With [spring_repulsion] a crossing or nearly touching spring pair would start tens of
+k_BT up the repulsion's energy (A = 100 k_BT at contact for the Kumar–Larson law),
+enough to tear a FENE spring; the chains then grow as walks whose every new spring
+keeps at least the repulsion range from all earlier springs sharing no bead with it
+(exact segment closest approach, jaxdpd.segments; a trapped chain is regrown).
+
 The configuration is drawn on the host with NumPy's PCG64 generator seeded by the
 scene's seed (no device compilation for a one-off), then cast to the scene's dtype.
 """
 
+import jax
 import jax.numpy as jnp
 import numpy as np
+
+from jaxdpd.segments import closest_approach
 
 
 def initial_configuration(scene, box, dtype, blocks):
@@ -43,13 +52,21 @@ def initial_configuration(scene, box, dtype, blocks):
         for block in blocks:
             walks = _random_walks(rng, block, lengths)
             unwrapped[block.first : block.stop] = walks.reshape(-1, 3)
+        if scene.spring_repulsion is not None:
+            _spring_avoiding_walks(rng, unwrapped, blocks, lengths, scene.spring_repulsion.range)
     image = np.floor(unwrapped / lengths).astype(np.int32)
-    positions = np.asarray(unwrapped - image * lengths, dtype)
-    # Rounding to `dtype` can leave a coordinate exactly at L: fold it to 0 and count
-    # the crossing.
-    at_edge = positions >= lengths.astype(dtype)
-    positions = np.where(at_edge, 0, positions).astype(dtype)
-    image = image + at_edge
+    cartesian_at_start = getattr(box, "cartesian_at_start", None)
+    if cartesian_at_start is not None:
+        # A box whose cell is tilted at the start (Kraynik–Reinelt) is filled in its
+        # frame, a rotated copy of space there, and the result is mapped back.
+        positions = np.asarray(cartesian_at_start(unwrapped - image * lengths), dtype)
+    else:
+        positions = np.asarray(unwrapped - image * lengths, dtype)
+        # Rounding to `dtype` can leave a coordinate exactly at L: fold it to 0 and
+        # count the crossing.
+        at_edge = positions >= lengths.astype(dtype)
+        positions = np.where(at_edge, 0, positions).astype(dtype)
+        image = image + at_edge
     kT = scene.solvent.kT if scene.solvent.method != "hoogerbrugge_koelman" else 1.0
     counts = [s.count for s in scene.particles.species]
     species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
@@ -73,6 +90,81 @@ def _random_walks(rng, block, lengths):
 
 
 MAX_ATTEMPTS = 1000
+
+
+def _spring_avoiding_walks(rng, unwrapped, blocks, lengths, clearance: float):
+    """Regrow the chains of `unwrapped` (in place) so that no two springs sharing no
+    bead come closer than `clearance` (minimum image of the midpoint separation).
+
+    Raises:
+        ValueError: when a chain cannot be grown (the chains are too crowded).
+    """
+    n_springs = sum(block.n_chains * (block.beads - 1) for block in blocks)
+    # Placed springs in fixed-size arrays (one compilation of the distance kernel);
+    # unplaced slots are marked absent.
+    midpoints = np.zeros((n_springs, 3))
+    springs = np.zeros((n_springs, 3))
+    lengths_array = jnp.asarray(lengths)
+    distances = _spring_distance_kernel()
+
+    def clear(first, bond, placed, previous_shares_bead):
+        """Whether spring first → first + bond keeps `clearance` from springs
+        [0, placed), except the last of them when it is its predecessor on the chain."""
+        others = placed - 1 if previous_shares_bead else placed
+        if others == 0:
+            return True
+        near = distances(
+            jnp.asarray(first + 0.5 * bond),
+            jnp.asarray(bond),
+            jnp.asarray(midpoints),
+            jnp.asarray(springs),
+            lengths_array,
+        )
+        return bool(np.all(np.asarray(near)[:others] >= clearance))
+
+    spring = 0
+    for block in blocks:
+        bond_length = block.law.placement_length
+        for c in range(block.n_chains):
+            first_bead = block.first + c * block.beads
+            for _ in range(MAX_ATTEMPTS):
+                unwrapped[first_bead] = rng.uniform(size=3) * lengths
+                for k in range(1, block.beads):
+                    for _ in range(MAX_ATTEMPTS):
+                        step = rng.normal(size=3)
+                        bond = bond_length * step / np.linalg.norm(step)
+                        start = unwrapped[first_bead + k - 1]
+                        if clear(start, bond, spring + k - 1, k > 1):
+                            unwrapped[first_bead + k] = start + bond
+                            midpoints[spring + k - 1] = start + 0.5 * bond
+                            springs[spring + k - 1] = bond
+                            break
+                    else:
+                        break  # trapped: regrow the chain
+                else:
+                    break
+            else:
+                raise ValueError(
+                    f"spring_repulsion: could not grow the chain starting at particle "
+                    f"{first_bead} with its springs spring_repulsion.range = {clearance} "
+                    "from all others; the chains are too crowded (fewer or shorter chains, "
+                    "or a larger box)"
+                )
+            spring += block.beads - 1
+
+
+def _spring_distance_kernel():
+    """Jitted `(midpoint, spring, midpoints, springs, lengths) -> (S,)` closest
+    approaches of one spring to many (minimum image of the midpoint separations)."""
+
+    def kernel(midpoint, spring, midpoints, springs, lengths):
+        separation = midpoint - midpoints
+        separation = separation - lengths * jnp.round(separation / lengths)
+        return closest_approach(
+            separation, jnp.broadcast_to(spring, springs.shape), springs
+        ).distance
+
+    return jax.jit(kernel)
 
 
 def _excluded_volume_configuration(rng, n, blocks, lengths, min_distance: float):

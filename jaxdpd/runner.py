@@ -39,6 +39,7 @@ from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
 from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
+from jaxdpd.observables.rheology import summary_rows
 from jaxdpd.running_averages import RunningBlockAverages
 from jaxdpd.simulation import build
 
@@ -324,7 +325,11 @@ class Run:
         if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
             (t0, s0), (t1, s1) = self.chunk_ends
             summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-        summary.averages = _summary_averages(self.averages) | center_of_mass_diffusion(correlations)
+        summary.averages = (
+            _summary_averages(self.averages)
+            | center_of_mass_diffusion(correlations)
+            | summary_rows(scene, self.averages.block_means(), self.averages.n_blocks)
+        )
         summary.references = ideal_references(self.simulation.blocks, scene.solvent.kT)
         summary.series = {name: np.concatenate(parts) for name, parts in self.series.items()}
         return summary

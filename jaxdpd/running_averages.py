@@ -59,6 +59,11 @@ class RunningBlockAverages:
         mean, error = block_average(means, n_blocks=self.n_blocks)
         return np.asarray(mean), np.asarray(error)
 
+    def block_means(self) -> dict:
+        """name -> (n_blocks, ...) block means of every series (a series of its own:
+        `block_average` of it with n_blocks blocks gives `result`)."""
+        return {name: sums / self.block_length for name, sums in self.sums.items()}
+
     @property
     def names(self) -> list[str]:
         """Names of the series seen so far."""

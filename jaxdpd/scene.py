@@ -10,13 +10,18 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     precision   "float32" | "float64"
     cutoff      r_c > 0 of all pair interactions        default 1 (2^(1/6) σ for
                 pair.kind = "wca", which is the only value allowed then)
-    [box]       kind = "periodic" | "lees_edwards" (follows from [flow] when not
-                given); lengths = [Lx, Ly, Lz] (optional, see particles)
+    [box]       kind = "periodic" | "lees_edwards" | "kraynik_reinelt" (follows from
+                [flow] when not given); lengths = [Lx, Ly, Lz] (optional, see
+                particles; a Kraynik–Reinelt box needs Lx = Lz)
     [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
                 oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
-                needs a Lees–Edwards box and solvent.method "dpd" or "mpcd" (MPCD
-                shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress is not
-                symmetric)
+                needs a Lees–Edwards box and solvent.method "dpd", "lowe_andersen" or
+                "mpcd" (MPCD shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress
+                is not symmetric)
+                kind = "planar_elongation": elongation_rate ε̇ (1/time, any sign;
+                u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
+                = 1..4 (lattice of thesis table 3.27, default 1); needs a
+                Kraynik–Reinelt box and solvent.method "dpd" or "lowe_andersen"
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
@@ -60,19 +65,32 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 (with mpcd the chained species must be adjacent in particles.species)
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
+                kind = "tagged": amplitude F, species = name: f_x = F on each of the
+                k particles of that species, −k F/(N − k) on every other one (drag
+                coefficient, thesis §4.2.4)
+    [spring_repulsion] between the springs of all chains (thesis §5.2; jaxdpd.segments):
+                law = "exponential" (A = 100 k_BT, alpha = 10/r_c; Kumar–Larson eq. 5.6)
+                | "linear" (a, force 3a(1 − D/range) at contact distance D; Pan–Manke
+                eq. 5.5); range = r_c/3 > 0; distance_floor = 0.001 r_c (≥ 0, < range);
+                needs [[polymers]]
     [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
                 lattice_boltzmann); lambda in [0, 1] (dpd only: Lowe–Andersen and
                 lattice-Boltzmann steps have no velocity-dependent force to predict)
     [neighbors] method = "cell_list" | "jax_md" | "all_pairs" (every pair, fixed: for
                 small systems such as one chain); format (jax_md) = "dense" |
-                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1
+                "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1;
+                spring_skin ≥ 0 (default 0.5: skin of the spring-pair list, used with
+                [spring_repulsion] or the "spring_pairs" observable)
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation", "dynamics", "profile",
-                "transverse_current"} (default temperature and pressure; no pressure with
-                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs
-                along y); trajectory_every (0 = never); correlator_every ≥ 1 (steps
-                between samples of the "dynamics" correlators), correlator_levels ≥ 1;
+                "transverse_current", "drag" (needs body_force.kind = "tagged"),
+                "spring_pairs"} (default temperature and pressure; no pressure with
+                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs along y);
+                spring_pair_bins ≥ 1, spring_pair_max > 0 (default r_c/3: histogram of
+                spring closest approaches, and spring crossings; needs [[polymers]]);
+                trajectory_every (0 = never); correlator_every ≥ 1 (steps between
+                samples of the "dynamics" correlators), correlator_levels ≥ 1;
                 current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
                 current_modes; cubic boxes); checkpoint_every (steps, 0 = only at
                 the end, on errors and on SIGINT/SIGTERM); trajectory_every and
@@ -86,6 +104,7 @@ from dataclasses import asdict, dataclass, field
 
 from jaxdpd.boxes import make_box
 from jaxdpd.mpcd.cells import collision_grid
+from jaxdpd.segments import SPRING_REPULSION_LAWS
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -115,10 +134,17 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-BOX_KINDS = ("periodic", "lees_edwards")
-FLOW_KINDS = ("shear",)
-BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards"}
+BOX_KINDS = ("periodic", "lees_edwards", "kraynik_reinelt")
+FLOW_KINDS = ("shear", "planar_elongation")
+BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards", "planar_elongation": "kraynik_reinelt"}
+# The fields of each flow kind in the [flow] section.
+FLOW_FIELDS = {
+    "shear": ("shear_rate", "oscillation_frequency"),
+    "planar_elongation": ("elongation_rate", "kraynik_reinelt_case"),
+}
 FLOW_SOLVENTS = ("dpd", "lowe_andersen", "mpcd")
+# Solvents with a Kraynik–Reinelt (planar elongation) step: the pair-based ones.
+ELONGATION_SOLVENTS = ("dpd", "lowe_andersen")
 OBSERVABLES = (
     "temperature",
     "pressure",
@@ -127,8 +153,11 @@ OBSERVABLES = (
     "dynamics",
     "profile",
     "transverse_current",
+    "drag",
+    "spring_pairs",
 )
-POLYMER_OBSERVABLES = ("conformation", "dynamics")
+BODY_FORCE_KINDS = ("cosine", "tagged")
+POLYMER_OBSERVABLES = ("conformation", "dynamics", "spring_pairs")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
@@ -163,14 +192,18 @@ class Flow:
     """An imposed homogeneous flow (SLLOD with flow-adapted boundaries).
 
     Attributes:
-        kind: "shear".
-        shear_rate: γ̇ (its amplitude for an oscillatory shear), 1/time.
+        kind: "shear" or "planar_elongation".
+        shear_rate: γ̇ (its amplitude for an oscillatory shear), 1/time (shear).
         oscillation_frequency: ω of γ̇(t) = γ̇ cos(ω t), or None for steady shear.
+        elongation_rate: ε̇, 1/time (planar elongation: z stretches, x compresses).
+        kraynik_reinelt_case: the lattice orientation of thesis table 3.27 (1–4).
     """
 
     kind: str
-    shear_rate: float
+    shear_rate: float = 0.0
     oscillation_frequency: float | None = None
+    elongation_rate: float = 0.0
+    kraynik_reinelt_case: int = 1
 
 
 @dataclass(frozen=True)
@@ -246,14 +279,43 @@ class BodyForce:
     """An external force on every particle (jaxdpd.forcing).
 
     Attributes:
-        kind: "cosine": f_x = amplitude cos(2π waves y / L_y).
-        amplitude: F, force per particle.
-        waves: n, periods across the box along y.
+        kind: "cosine": f_x = amplitude cos(2π waves y / L_y); "tagged": f_x =
+            amplitude on the particles of `species`, −amplitude k/(N − k) on the others.
+        amplitude: F, force per (tagged) particle.
+        waves: n, periods across the box along y (cosine).
+        species: the tagged species (tagged).
     """
 
     kind: str
     amplitude: float
     waves: int = 1
+    species: str | None = None
+
+
+@dataclass(frozen=True)
+class SpringRepulsion:
+    """Repulsion between the springs of every chain (jaxdpd.segments).
+
+    Attributes:
+        law: "exponential" or "linear".
+        parameters: the law's parameters ((name, value), ...): A and alpha, or a.
+        range: D_c, the closest-approach distance from which on the force is zero.
+        distance_floor: D_min, the distance closer springs are treated as being at.
+    """
+
+    law: str
+    parameters: tuple[tuple[str, float], ...]
+    range: float
+    distance_floor: float
+
+    def table(self) -> dict:
+        """The section as a flat dictionary (law, its parameters, range, floor)."""
+        return {
+            "law": self.law,
+            **dict(self.parameters),
+            "range": self.range,
+            "distance_floor": self.distance_floor,
+        }
 
 
 @dataclass(frozen=True)
@@ -272,6 +334,7 @@ class Neighbors:
     format: str = "ordered_sparse"
     skin: float = 0.0
     capacity_multiplier: float = 1.25
+    spring_skin: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -297,6 +360,8 @@ class Output:
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
+    spring_pair_bins: int = 50
+    spring_pair_max: float = 1.0 / 3.0  # from_dict's default: cutoff / 3
 
 
 @dataclass(frozen=True)
@@ -314,6 +379,7 @@ class Scene:
     polymers: tuple[Polymer, ...] = ()
     flow: Flow | None = None
     body_force: BodyForce | None = None
+    spring_repulsion: SpringRepulsion | None = None
     neighbors: Neighbors = field(default_factory=Neighbors)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
@@ -351,6 +417,7 @@ class Scene:
                 "polymers",
                 "flow",
                 "body_force",
+                "spring_repulsion",
                 "neighbors",
                 "run",
                 "output",
@@ -389,7 +456,7 @@ class Scene:
         heights = make_box(box_kind, lengths, flow).cell_heights
         for axis, length, height in zip("xyz", lengths, heights, strict=True):
             if not height > 2 * list_cutoff:
-                tilted = f" (its thickness {height:.4g} at the largest shear tilt)"
+                tilted = f" (its thinnest cell height {height:.4g} as the box deforms)"
                 raise ValueError(
                     f"box.lengths: L_{axis} = {length:.4g}{tilted if height != length else ''} "
                     f"must exceed 2 ({range_name} + neighbors.skin) = {2 * list_cutoff:.4g}; "
@@ -406,20 +473,43 @@ class Scene:
         _check_collision_probability(solvent, integrator)
         if solvent.method == "lattice_boltzmann":
             _check_lattice(solvent, lengths, integrator)
-        polymers = _read_polymers(polymer_entries, particles.species, solvent, lengths)
+        # Springs must stay shorter than half the box for their minimum image to be
+        # unique: half the shortest edge, or half the thinnest Kraynik–Reinelt cell.
+        spring_room = (
+            (min(heights), "the thinnest Kraynik–Reinelt cell", "thesis §3.4.3")
+            if box_kind == "kraynik_reinelt"
+            else (min(lengths), "the shortest box edge", "thesis §3.2.3")
+        )
+        polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
         if solvent.method == "mpcd":
             _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), heights, run.chunk, solvent)
+        output = _read_output(data.get("output", {}), heights, run.chunk, solvent, cutoff)
         if "transverse_current" in output.observables and len(set(lengths)) != 1:
             raise ValueError(
                 f"output.observables: 'transverse_current' averages the six transverse pairs "
                 f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
             )
+        spring_repulsion = _read_spring_repulsion(data.get("spring_repulsion"), polymers, cutoff)
+        if solvent.method == "mpcd" and (
+            spring_repulsion is not None or "spring_pairs" in output.observables
+        ):
+            raise ValueError(
+                "spring_repulsion / output.observables 'spring_pairs': not available with "
+                "solvent.method = 'mpcd' (its monomer step does not carry the spring-pair "
+                "list); remove them"
+            )
+        _check_spring_reach(spring_repulsion, output, neighbors, heights)
         if flow is not None and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
                 "rest; under flow, measure the chains with 'conformation'"
+            )
+        body_force = _read_body_force(data.get("body_force"), solvent, particles)
+        if "drag" in output.observables and _kind(body_force) != "tagged":
+            raise ValueError(
+                "output.observables: 'drag' measures the drift of tagged particles; add "
+                "[body_force] kind = 'tagged' with their species, or remove it"
             )
         for name in POLYMER_OBSERVABLES:
             if name in output.observables and not polymers:
@@ -438,7 +528,8 @@ class Scene:
             integrator=integrator,
             polymers=polymers,
             flow=flow,
-            body_force=_read_body_force(data.get("body_force"), solvent),
+            body_force=body_force,
+            spring_repulsion=spring_repulsion,
             neighbors=neighbors,
             run=run,
             output=output,
@@ -462,6 +553,17 @@ class Scene:
     def volume(self) -> float:
         """Box volume."""
         return math.prod(self.box.lengths)
+
+    @property
+    def spring_reach(self) -> float | None:
+        """The largest spring closest-approach distance any term or observable reads
+        (the spring-pair list's reach), or None when nothing reads spring pairs."""
+        reaches = []
+        if self.spring_repulsion is not None:
+            reaches.append(self.spring_repulsion.range)
+        if "spring_pairs" in self.output.observables:
+            reaches.append(self.output.spring_pair_max)
+        return max(reaches) if reaches else None
 
     @property
     def particle_momentum_conserved(self) -> bool:
@@ -503,10 +605,25 @@ class Scene:
             del data["polymers"]
         if self.body_force is None:
             del data["body_force"]
+        elif self.body_force.kind == "cosine":
+            del data["body_force"]["species"]
+        else:
+            del data["body_force"]["waves"]
+        if self.spring_repulsion is None:
+            del data["spring_repulsion"]
+        else:
+            data["spring_repulsion"] = self.spring_repulsion.table()
         if self.flow is None:
             del data["flow"]
-        elif self.flow.oscillation_frequency is None:
-            del data["flow"]["oscillation_frequency"]
+        else:
+            data["flow"] = {
+                "kind": self.flow.kind,
+                **{
+                    name: value
+                    for name in FLOW_FIELDS[self.flow.kind]
+                    if (value := getattr(self.flow, name)) is not None
+                },
+            }
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
         if self.neighbors.method == "all_pairs":
@@ -750,15 +867,21 @@ def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
         )
 
 
-def _kind(flow: Flow | None) -> str | None:
-    return None if flow is None else flow.kind
+def _kind(section: Flow | BodyForce | None) -> str | None:
+    return None if section is None else section.kind
 
 
 def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     if section is None:
         return None
-    check_keys(section, ("kind", "shear_rate", "oscillation_frequency"), "flow")
+    check_keys(section, ("kind", *{f for fields in FLOW_FIELDS.values() for f in fields}), "flow")
     kind = read_choice(section, "kind", "flow", FLOW_KINDS)
+    misplaced = sorted(set(section) - {"kind", *FLOW_FIELDS[kind]})
+    if misplaced:
+        raise ValueError(
+            f"flow: {misplaced} do not belong to flow.kind = {kind!r}; its fields are "
+            f"{list(FLOW_FIELDS[kind])}"
+        )
     if solvent.method not in FLOW_SOLVENTS:
         raise ValueError(
             f"flow: solvent.method = {solvent.method!r} has no SLLOD integrator; use one "
@@ -767,7 +890,21 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     if neighbors.method != "cell_list":
         raise ValueError(
             f"neighbors.method = {neighbors.method!r}: only the cell list knows the "
-            "Lees–Edwards boundary; use neighbors.method = 'cell_list' with a [flow]"
+            "Lees–Edwards and Kraynik–Reinelt boundaries; use neighbors.method = "
+            "'cell_list' with a [flow]"
+        )
+    if kind == "planar_elongation":
+        if solvent.method not in ELONGATION_SOLVENTS:
+            raise ValueError(
+                f"flow: solvent.method = {solvent.method!r} has no Kraynik–Reinelt step; "
+                f"planar elongation needs one of {list(ELONGATION_SOLVENTS)}"
+            )
+        return Flow(
+            kind,
+            elongation_rate=read_number(section, "elongation_rate", "flow"),
+            kraynik_reinelt_case=read_number(
+                section, "kraynik_reinelt_case", "flow", 1, minimum=1, maximum=4, integer=True
+            ),
         )
     shear_rate = read_number(section, "shear_rate", "flow")
     frequency = read_number(
@@ -776,24 +913,42 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     return Flow(kind, shear_rate, frequency)
 
 
-def _read_body_force(section, solvent: Solvent) -> BodyForce | None:
+def _read_body_force(section, solvent: Solvent, particles: Particles) -> BodyForce | None:
     if section is None:
         return None
-    check_keys(section, ("kind", "amplitude", "waves"), "body_force")
+    check_keys(section, ("kind", "amplitude", "waves", "species"), "body_force")
     if solvent.method != "dpd":
         raise ValueError(
             f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
             f"not {solvent.method!r}"
         )
-    return BodyForce(
-        kind=read_choice(section, "kind", "body_force", ("cosine",)),
-        amplitude=read_number(section, "amplitude", "body_force"),
-        waves=read_number(section, "waves", "body_force", 1, minimum=1, integer=True),
-    )
+    kind = read_choice(section, "kind", "body_force", BODY_FORCE_KINDS)
+    amplitude = read_number(section, "amplitude", "body_force")
+    if kind == "cosine":
+        if "species" in section:
+            raise ValueError("body_force.species: only used with body_force.kind = 'tagged'")
+        waves = read_number(section, "waves", "body_force", 1, minimum=1, integer=True)
+        return BodyForce(kind, amplitude, waves)
+    if "waves" in section:
+        raise ValueError("body_force.waves: only used with body_force.kind = 'cosine'")
+    species = read_string(section, "species", "body_force")
+    counts = {s.name: s.count for s in particles.species}
+    if species not in counts:
+        raise ValueError(
+            f"body_force.species = {species!r}: not a particle species; species are {list(counts)}"
+        )
+    if not 1 <= counts[species] < particles.count:
+        raise ValueError(
+            f"body_force.species = {species!r} has {counts[species]} particles: the tagged "
+            "force needs at least one tagged and one untagged particle"
+        )
+    return BodyForce(kind, amplitude, species=species)
 
 
 def _read_neighbors(section) -> Neighbors:
-    check_keys(section, ("method", "format", "skin", "capacity_multiplier"), "neighbors")
+    check_keys(
+        section, ("method", "format", "skin", "capacity_multiplier", "spring_skin"), "neighbors"
+    )
     method = read_choice(section, "method", "neighbors", NEIGHBOR_METHODS, "cell_list")
     if method != "jax_md" and "format" in section:
         raise ValueError("neighbors.format: only used with neighbors.method = 'jax_md'")
@@ -806,6 +961,7 @@ def _read_neighbors(section) -> Neighbors:
         capacity_multiplier=read_number(
             section, "capacity_multiplier", "neighbors", 1.25, minimum=1.0
         ),
+        spring_skin=read_number(section, "spring_skin", "neighbors", 0.5, minimum=0),
     )
 
 
@@ -1009,7 +1165,9 @@ def _polymer_entries(entries) -> list:
     return entries
 
 
-def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[Polymer, ...]:
+def _read_polymers(
+    entries: list, species, solvent: Solvent, spring_room: tuple[float, str, str]
+) -> tuple[Polymer, ...]:
     if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann", "mpcd"):
         raise ValueError(
             "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen', "
@@ -1034,12 +1192,14 @@ def _read_polymers(entries: list, species, solvent: Solvent, lengths) -> tuple[P
                 f"chains of {path}.beads = {beads}; give a count that is a positive multiple "
                 f"of {beads}"
             )
-        bond = _read_bond(entry.get("bond"), f"{path}.bond", lengths)
+        bond = _read_bond(entry.get("bond"), f"{path}.bond", spring_room)
         polymers.append(Polymer(name, beads, tuple(bond.items())))
     return tuple(polymers)
 
 
-def _read_bond(section, path: str, lengths) -> dict:
+def _read_bond(section, path: str, spring_room: tuple[float, str, str]) -> dict:
+    """The bond table; `spring_room` is (twice the longest spring the box allows,
+    what that length is, its reference)."""
     if section is None:
         raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
     check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
@@ -1054,10 +1214,11 @@ def _read_bond(section, path: str, lengths) -> dict:
         bond[key] = read_number(
             section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
         )
-    if "max_extension" in bond and not bond["max_extension"] < min(lengths) / 2:
+    room, room_name, reference = spring_room
+    if "max_extension" in bond and not bond["max_extension"] < room / 2:
         raise ValueError(
             f"{path}.max_extension = {bond['max_extension']}: a spring must stay shorter "
-            f"than half the shortest box edge ({min(lengths) / 2:.4g}; thesis §3.2.3); "
+            f"than half {room_name} ({room / 2:.4g}; {reference}); "
             "enlarge the box or shorten the spring"
         )
     if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
@@ -1141,7 +1302,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
+def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) -> Output:
     check_keys(
         section,
         (
@@ -1155,6 +1316,8 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             "correlator_levels",
             "profile_bins",
             "current_modes",
+            "spring_pair_bins",
+            "spring_pair_max",
         ),
         "output",
     )
@@ -1197,4 +1360,64 @@ def _read_output(section, heights, chunk: int, solvent: Solvent) -> Output:
             section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
         ),
         profile_bins=read_number(section, "profile_bins", "output", 20, minimum=1, integer=True),
+        spring_pair_bins=read_number(
+            section, "spring_pair_bins", "output", 50, minimum=1, integer=True
+        ),
+        spring_pair_max=read_number(
+            section, "spring_pair_max", "output", cutoff / 3, minimum=0, exclusive_minimum=True
+        ),
     )
+
+
+SPRING_REPULSION_PARAMETERS = {
+    "exponential": {"A": 100.0, "alpha": 10.0},
+    "linear": {"a": REQUIRED},
+}
+
+
+def _read_spring_repulsion(section, polymers, cutoff: float) -> SpringRepulsion | None:
+    if section is None:
+        return None
+    path = "spring_repulsion"
+    keys = {k for p in SPRING_REPULSION_PARAMETERS.values() for k in p}
+    check_keys(section, ("law", *keys, "range", "distance_floor"), path)
+    if not polymers:
+        raise ValueError(
+            f"{path}: acts between the springs of chains; add a [[polymers]] section or remove it"
+        )
+    law = read_choice(section, "law", path, SPRING_REPULSION_LAWS, "exponential")
+    defaults = SPRING_REPULSION_PARAMETERS[law]
+    misplaced = sorted(keys & set(section) - set(defaults))
+    if misplaced:
+        raise ValueError(f"{path}: {misplaced} are not parameters of law {law!r}")
+    parameters = tuple(
+        (key, read_number(section, key, path, default, minimum=0, exclusive_minimum=True))
+        for key, default in defaults.items()
+    )
+    reach = read_number(section, "range", path, cutoff / 3, minimum=0, exclusive_minimum=True)
+    floor = read_number(section, "distance_floor", path, 0.001 * cutoff, minimum=0)
+    if not floor < reach:
+        raise ValueError(f"{path}.distance_floor = {floor}: must be below {path}.range = {reach}")
+    return SpringRepulsion(law, parameters, reach, floor)
+
+
+def _check_spring_reach(spring_repulsion, output: Output, neighbors: Neighbors, heights):
+    """Spring pairs are listed by midpoints within ℓ + reach + skin (ℓ: the longest
+    spring), which must stay below half the box's thinnest height: refuse a reach and
+    skin that leave no room for springs."""
+    reaches = []
+    if spring_repulsion is not None:
+        reaches.append(("spring_repulsion.range", spring_repulsion.range))
+    if "spring_pairs" in output.observables:
+        reaches.append(("output.spring_pair_max", output.spring_pair_max))
+    if not reaches:
+        return
+    name, reach = max(reaches, key=lambda item: item[1])
+    half_height = 0.5 * min(heights)
+    if not reach + neighbors.spring_skin < half_height:
+        raise ValueError(
+            f"{name} = {reach}: with neighbors.spring_skin = {neighbors.spring_skin} it must "
+            f"leave room for the springs below half the box's thinnest height "
+            f"({half_height:.4g}; spring pairs are listed by midpoints within spring length "
+            "+ range + skin); enlarge the box or reduce them"
+        )

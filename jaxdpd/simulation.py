@@ -4,11 +4,16 @@ Nothing the scene does not ask for is traced: without a [pair] section there is 
 conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
 Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
 kernel, without [body_force] no external force, with no pair term or thermostat at
-all no neighbour search, and in a box at rest (no [flow]) no flow arithmetic.  With
-solvent.method = "lattice_boltzmann" the particles are beads coupled by friction to
-a lattice-Boltzmann fluid kept in SimState.solvent_state (jaxdpd.lattice_boltzmann);
-with its k_BT = 0 no noise is traced.  With an MPCD solvent only the monomers feel
-forces: the force kernel and its neighbour search cover their index range alone.
+all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
+without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+With solvent.method = "lattice_boltzmann" the particles are beads coupled by
+friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
+(jaxdpd.lattice_boltzmann); with its k_BT = 0 no noise is traced.  With an MPCD
+solvent only the monomers feel forces: the force kernel and its neighbour search
+cover their index range alone.
+
+The bond constants and the body-force amplitude are read from
+`SimState.parameters` (jaxdpd.parameters): one compiled step serves every value.
 """
 
 import dataclasses
@@ -18,11 +23,12 @@ from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdpd import errors, noise
 from jaxdpd.bonds import chain_bond_forces
 from jaxdpd.boxes import make_box
-from jaxdpd.forcing import cosine_body_force
+from jaxdpd.forcing import cosine_body_force, tagged_body_force
 from jaxdpd.integrators import (
     collide_and_stream,
     modified_velocity_verlet,
@@ -32,19 +38,35 @@ from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
 from jaxdpd.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
 from jaxdpd.mpcd.step import mpcd_step
 from jaxdpd.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.neighbors.spring_pairs import (
+    SpringPairSearch,
+    free_spring_length,
+    spring_pair_needs,
+    spring_pair_shapes,
+)
 from jaxdpd.observables.chain_correlators import (
     init_chain_correlators,
     sample_every,
     update_chain_correlators,
 )
-from jaxdpd.observables.chain_series import conformation_samples
+from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
+from jaxdpd.observables.drag import relative_velocity_samples
 from jaxdpd.observables.profiles import profile_samples
+from jaxdpd.observables.spring_pairs import spring_pair_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
+from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
+from jaxdpd.segments import (
+    pair_magnitudes,
+    segment_forces,
+    segment_virial,
+    spring_repulsion_law,
+    spring_table,
+)
 from jaxdpd.state import SimState
 from jaxdpd.thermostats.dpd import groot_warren_term
 from jaxdpd.thermostats.hoogerbrugge_koelman import hoogerbrugge_koelman_term
@@ -72,12 +94,20 @@ class Simulation:
         dtype: floating dtype of positions, velocities and forces.
         masses: (N,) particle masses, or None when all are 1.
         neighbor_search: the neighbour backend (None when no pair term exists).
+        spring_search: the spring-pair list's builder (None when nothing reads spring
+            pairs).
         init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
         step_fn: `step_fn(state) -> (state, samples)`, pure and jittable; samples is
             a dict of per-step arrays (kinetic and virial tensors as requested).
-        reallocate: `reallocate(state, (pairs, cell_occupancy)) -> state` with
-            neighbour buffers re-sized from the state's positions to hold at least
-            the given needs (host side, after an overflow).
+        reallocate: `reallocate(state, needs) -> state` with neighbour buffers
+            re-sized from the state's positions to hold at least `needs` (host side,
+            after an overflow), a tuple as `buffer_needs` gives it (the particle
+            list's (pairs, cell occupancy) first), or None to fit the state alone.
+        buffer_needs: `buffer_needs(state) -> tuple` of NumPy values: what every
+            neighbour buffer needed (for a batch of replicas, arrays over them;
+            `reallocate` takes their largest).
+        buffer_shapes: `buffer_shapes(state) -> tuple`: the static buffer sizes that
+            replicas must share to be stacked.
         init_observers: `init_observers(state) -> state` with empty on-device
             accumulators (`state.observers`), e.g. to discard the equilibration.
     """
@@ -88,10 +118,13 @@ class Simulation:
     dtype: object
     masses: object
     neighbor_search: NeighborSearch | None
+    spring_search: SpringPairSearch | None
     init_fn: Callable
     step_fn: Callable
     reallocate: Callable
     init_observers: Callable
+    buffer_needs: Callable
+    buffer_shapes: Callable
 
 
 def pair_terms(scene: Scene, dtype) -> list:
@@ -121,7 +154,39 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
-def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, body_force):
+def species_range(scene: Scene, name: str) -> tuple[int, int]:
+    """(first index, count) of the particles of species `name` (stored species
+    after species)."""
+    first = 0
+    for species in scene.particles.species:
+        if species.name == name:
+            return first, species.count
+        first += species.count
+    raise ValueError(f"species {name!r}: not in the scene's species {scene.species_names}")
+
+
+def body_force_law(scene: Scene, dtype):
+    """`force(positions, amplitude)` of the scene's [body_force], or None."""
+    section = scene.body_force
+    if section is None:
+        return None
+    if section.kind == "cosine":
+        return cosine_body_force(section.waves, scene.box.lengths[1], dtype)
+    first, count = species_range(scene, section.species)
+    return tagged_body_force(first, count, scene.n_particles, dtype)
+
+
+def force_kernel(
+    box,
+    terms,
+    search,
+    blocks,
+    cutoff: float,
+    with_virial: bool,
+    body_force,
+    spring_search=None,
+    repulsion=None,
+):
     """The composed force kernel: the pair terms, the body force and the springs of
     every chain block.
 
@@ -137,11 +202,27 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
         blocks: ChainBlocks indexed within the range.
         cutoff: r_c of the pair terms.
         with_virial: compute the virial parts (else none).
-        body_force: `body_force(positions) -> (N, 3)` or None.
+        body_force: `body_force(positions, amplitude) -> (N, 3)` or None.
+        spring_search: the spring-pair list (SpringPairSearch), or None.
+        repulsion: the spring–spring repulsion law (jaxdpd.segments), or None.
     Returns:
         `interactions(positions, velocities, state) -> (vectors, virial parts
-        {name: (3, 3)}, pair_list, error bits)`.
+        {name: (3, 3)}, the state with its neighbour lists refreshed, error bits)`.
     """
+
+    def spring_interactions(positions, state, vectors, virial):
+        """Refresh the spring-pair list; add the spring–spring repulsion if the scene
+        has one.  Returns (vectors, virial, refreshed list, overflow bits)."""
+        spring_pairs, geometry = spring_search.refresh(
+            positions, state.spring_pairs, state.box_state
+        )
+        bits = jnp.where(spring_pairs.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        if repulsion is not None:
+            magnitude = pair_magnitudes(geometry, repulsion)
+            vectors = vectors + segment_forces(geometry, magnitude, positions.shape[0])
+            if with_virial:
+                virial["spring_repulsion"] = segment_virial(geometry, magnitude)
+        return vectors, virial, spring_pairs, bits
 
     def pair_interactions(bound_box, positions, velocities, state):
         """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
@@ -163,20 +244,23 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
         return vectors, virial, pair_list
 
     def interactions(positions, velocities, state):
-        """Pair terms plus the springs of every chain block, in the box of `state`.
+        """Pair terms plus the springs of every chain block (and their mutual
+        repulsion), in the box of `state`.
 
         Returns:
-            (per-particle vectors, virial parts {name: (3, 3)}, refreshed pair list,
-            error bits).
+            (per-particle vectors, virial parts {name: (3, 3)}, the state with its
+            neighbour lists refreshed, error bits).
         """
         bound_box = box.bind(state.box_state)
         vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
+        state = state.set(pair_list=pair_list)
         if body_force is not None:
-            vectors = vectors + body_force(positions)
+            vectors = vectors + body_force(positions, state.parameters["body_force"]["amplitude"])
         bits = jnp.asarray(0, jnp.int32)
         for block in blocks:
+            law = block.law.with_parameters(state.parameters["bond"][block.species])
             bonded = chain_bond_forces(
-                bound_box, block.take(positions), block.take(state.image), block.law, with_virial
+                bound_box, block.take(positions), block.take(state.image), law, with_virial
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
             if with_virial:
@@ -186,7 +270,13 @@ def force_kernel(box, terms, search, blocks, cutoff: float, with_virial: bool, b
                 | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
                 | jnp.where(bonded.past_half_box, errors.SPRING_PAST_HALF_BOX, 0)
             )
-        return vectors, virial, pair_list, bits
+        if spring_search is not None:
+            vectors, virial, spring_pairs, spring_bits = spring_interactions(
+                positions, state, vectors, virial
+            )
+            state = state.set(spring_pairs=spring_pairs)
+            bits = bits | spring_bits
+        return vectors, virial, state, bits
 
     return interactions
 
@@ -239,11 +329,7 @@ def build(scene: Scene) -> Simulation:
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
     bath_cutoff = thermalization_cutoff(scene)
-    body_force = None
-    if scene.body_force is not None:
-        body_force = cosine_body_force(
-            scene.body_force.amplitude, scene.body_force.waves, scene.box.lengths[1], dtype
-        )
+    body_force = body_force_law(scene, dtype)
     search = None
     if terms or bath_cutoff is not None:
         search = neighbor_search(
@@ -255,8 +341,30 @@ def build(scene: Scene) -> Simulation:
             scene.neighbors.format,
         )
 
+    spring_search = None
+    if scene.spring_reach is not None:
+        spring_search = SpringPairSearch(
+            box,
+            spring_table(blocks),
+            scene.spring_reach,
+            scene.neighbors.spring_skin,
+            max(free_spring_length(block.law, scene.solvent.kT) for block in blocks),
+            scene.neighbors.capacity_multiplier,
+        )
+    repulsion = None
+    if scene.spring_repulsion is not None:
+        repulsion = spring_repulsion_law(scene.spring_repulsion.table())
+
     interactions = force_kernel(
-        box, terms, search, local_blocks, scene.cutoff, with_virial, body_force
+        box,
+        terms,
+        search,
+        local_blocks,
+        scene.cutoff,
+        with_virial,
+        body_force,
+        spring_search,
+        repulsion,
     )
 
     fluid = None
@@ -318,13 +426,31 @@ def build(scene: Scene) -> Simulation:
         )
 
     observables = scene.output.observables
+    spring_pair_strengths = []  # (block, a of its species with itself)
+    if {"conformation", "pressure"} <= set(observables) and scene.pair is not None:
+        names = scene.species_names
+        spring_pair_strengths = [
+            (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
+            for block in blocks
+        ]
+    tagged_range = None
+    if "drag" in observables:
+        tagged_range = species_range(scene, scene.body_force.species)
 
-    def step_fn(state):
-        state = advance(state)
+    def step_fn(previous):
+        state = advance(previous)
         samples = step_samples(observables, state, masses)
         bound_box = box.bind(state.box_state)
         if "conformation" in observables:
-            samples.update(conformation_samples(bound_box, state.positions, blocks))
+            samples.update(
+                conformation_samples(bound_box, state.positions, blocks, state.parameters)
+            )
+            for block, strength in spring_pair_strengths:
+                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
+                    bound_box, state.positions, block, strength, scene.cutoff, scene.volume
+                )
+        if "drag" in observables:
+            samples.update(relative_velocity_samples(state.velocities, tagged_range))
         if "profile" in observables:
             samples.update(
                 profile_samples(
@@ -343,6 +469,18 @@ def build(scene: Scene) -> Simulation:
                 lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
             )
             state = state.set(observers=observers)
+        if "spring_pairs" in observables:
+            # The same list slots at both ends of the step: crossings are reversals.
+            before = spring_search.measure(
+                previous.positions, state.spring_pairs, previous.box_state
+            )
+            after = spring_search.measure(state.positions, state.spring_pairs, state.box_state)
+            output = scene.output
+            samples.update(
+                spring_pair_samples(
+                    before, after, output.spring_pair_max, output.spring_pair_bins, dtype
+                )
+            )
         return state, samples
 
     def init_observers(state):
@@ -377,6 +515,8 @@ def build(scene: Scene) -> Simulation:
             seed=jnp.asarray(scene.seed, jnp.uint32),
             flags=jnp.asarray(0, jnp.int32),
             box_state=box_state,
+            parameters=scene_parameters(scene, blocks, dtype),
+            spring_pairs=allocate_spring_pairs(positions, box_state),
         )
         if bath_cutoff is not None:
             state = state.set(solvent_state=empty_record(dtype))
@@ -389,22 +529,64 @@ def build(scene: Scene) -> Simulation:
         if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
             rows = slice(first, stop)
             sub = state.set(image=image[rows], species=species[rows])
-            forces, virial, pair_list, bits = jax.jit(interactions)(
+            forces, virial, refreshed, bits = jax.jit(interactions)(
                 positions[rows], velocities[rows], sub
             )
             state = state.set(
                 forces=state.forces.at[rows].set(forces),
                 virial={**state.virial, **virial},
-                pair_list=pair_list,
+                pair_list=refreshed.pair_list,
+                spring_pairs=refreshed.spring_pairs,
                 flags=bits,
             )
         return state
 
-    def reallocate(state, minimum):
-        return state.set(pair_list=allocate_pairs(state.positions, state.box_state, minimum))
+    def allocate_spring_pairs(positions, box_state, minimum=None):
+        if spring_search is None:
+            return None
+        return spring_search.allocate(positions, box_state, minimum)
+
+    def reallocate(state, minimum=None):
+        if minimum is not None:
+            minimum = tuple(np.max(v) for v in minimum)  # a batch's largest needs
+        particles = None if minimum is None else minimum[:2]
+        state = state.set(pair_list=allocate_pairs(state.positions, state.box_state, particles))
+        if spring_search is None:
+            return state
+        # Without recorded needs, keep at least the longest spring seen so far.
+        springs = minimum[2:] if minimum is not None and len(minimum) > 2 else None
+        springs = springs or (0, 0, np.asarray(state.spring_pairs.longest))
+        return state.set(
+            spring_pairs=allocate_spring_pairs(state.positions, state.box_state, springs)
+        )
+
+    def buffer_needs(state) -> tuple:
+        pair_list = state.pair_list
+        needs = (np.asarray(pair_list.needed_pairs), np.asarray(pair_list.needed_cell_occupancy))
+        if spring_search is not None:
+            needs += spring_pair_needs(state.spring_pairs)
+        return needs
+
+    def buffer_shapes(state) -> tuple:
+        shapes = (state.pair_list.capacity, state.pair_list.cell_capacity)
+        if spring_search is not None:
+            shapes += spring_pair_shapes(state.spring_pairs)
+        return shapes
 
     return Simulation(
-        scene, box, blocks, dtype, masses, search, init_fn, step_fn, reallocate, init_observers
+        scene,
+        box,
+        blocks,
+        dtype,
+        masses,
+        search,
+        spring_search,
+        init_fn,
+        step_fn,
+        reallocate,
+        init_observers,
+        buffer_needs,
+        buffer_shapes,
     )
 
 

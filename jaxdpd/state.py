@@ -31,6 +31,11 @@ class SimState:
             shear rate); None for a box at rest.
         observers: accumulators of observables measured on device while the run goes
             (e.g. multiple-tau correlators), a dict pytree; None when none is asked.
+        parameters: traced model parameters read by the force kernels (bond
+            constants, body-force amplitude; see jaxdpd.parameters), a dict pytree;
+            change them without recompiling, or give each replica its own.
+        spring_pairs: the spring-pair list (jaxdpd.neighbors.spring_pairs) of scenes
+            with spring–spring repulsion or the "spring_pairs" observable; else None.
     """
 
     positions: jnp.ndarray
@@ -47,3 +52,5 @@ class SimState:
     solvent_state: object = None
     box_state: object = None
     observers: object = None
+    parameters: object = None
+    spring_pairs: object = None

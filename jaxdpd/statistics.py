@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["block_average", "blocking_analysis"]
+__all__ = ["block_average", "blocking_analysis", "ratio_of_means"]
 
 
 def _check_series(series, axis: int, n_blocks: int | None = None):
@@ -106,3 +106,33 @@ def blocking_analysis(series, axis: int = 0, min_blocks: int = 8):
         x = 0.5 * (x[0::2] + x[1::2])
         length *= 2
     return np.asarray(lengths, dtype=np.int64), jnp.stack(sems)
+
+
+def ratio_of_means(numerator, denominator, n_blocks: int = 20, axis: int = 0):
+    """Ratio ``r = <a>/<b>`` of two series sampled together, with its standard error.
+
+    The error is the block-average standard error of the linearised series
+    ``(a_t - r b_t) / <b>`` (first-order delta method: it carries the correlation of
+    ``a`` and ``b`` and their time correlations through the blocks), valid when the
+    relative error of ``<b>`` is small.
+
+    Args:
+      numerator, denominator: arrays of one shape ``(..., T, ...)``, time at ``axis``.
+      n_blocks: number of blocks (see :func:`block_average`).
+      axis: the time axis.
+
+    Returns:
+      ``(ratio, sem)``: arrays of the series shape with ``axis`` removed.
+
+    Reference: the delta method for a ratio of means (first-order error propagation,
+    with the covariance of numerator and denominator kept).
+    """
+    a = _check_series(numerator, axis, n_blocks)
+    b = _check_series(denominator, axis, n_blocks)
+    if a.shape != b.shape:
+        raise ValueError(f"numerator {a.shape} and denominator {b.shape} must have one shape")
+    mean_a, _ = block_average(a, n_blocks)
+    mean_b, _ = block_average(b, n_blocks)
+    ratio = mean_a / mean_b
+    _, sem = block_average((a - ratio * b) / mean_b, n_blocks)
+    return ratio, jnp.abs(sem)

@@ -96,7 +96,7 @@ def test_dragged_bead_reaches_the_velocity_of_its_effective_friction():
 
     def no_forces(positions, velocities, state):
         zero = jnp.asarray(0, jnp.int32)
-        return jnp.zeros_like(positions), {}, state.pair_list, zero
+        return jnp.zeros_like(positions), {}, state, zero
 
     step = coupled_step(
         PeriodicBox((float(n),) * 3),

@@ -1,18 +1,27 @@
 """Simulation boxes: how positions wrap and how separations are measured."""
 
+from jaxdpd.boxes.kraynik_reinelt import KraynikReineltBox, KraynikReineltState
 from jaxdpd.boxes.lees_edwards import LeesEdwardsBox, LeesEdwardsState
 from jaxdpd.boxes.periodic import PeriodicBox
 
-__all__ = ["LeesEdwardsBox", "LeesEdwardsState", "PeriodicBox", "make_box"]
+__all__ = [
+    "KraynikReineltBox",
+    "KraynikReineltState",
+    "LeesEdwardsBox",
+    "LeesEdwardsState",
+    "PeriodicBox",
+    "make_box",
+]
 
 
 def make_box(kind: str, lengths, flow=None):
     """The static box of a scene.
 
     Args:
-        kind: "periodic" or "lees_edwards".
+        kind: "periodic", "lees_edwards" or "kraynik_reinelt".
         lengths: (L_x, L_y, L_z).
-        flow: the scene's Flow (shear rate, oscillation) for a Lees–Edwards box.
+        flow: the scene's Flow (shear rate and oscillation for a Lees–Edwards box,
+            elongation rate and lattice case for a Kraynik–Reinelt box).
     """
     lengths = tuple(float(length) for length in lengths)
     if kind == "periodic":
@@ -21,4 +30,8 @@ def make_box(kind: str, lengths, flow=None):
         rate = flow.shear_rate if flow is not None else 0.0
         frequency = flow.oscillation_frequency if flow is not None else None
         return LeesEdwardsBox(lengths, rate, frequency)
-    raise ValueError(f"box.kind = {kind!r}; valid: 'periodic', 'lees_edwards'")
+    if kind == "kraynik_reinelt":
+        if flow is None:
+            return KraynikReineltBox(lengths)
+        return KraynikReineltBox(lengths, flow.elongation_rate, flow.kraynik_reinelt_case)
+    raise ValueError(f"box.kind = {kind!r}; valid: 'periodic', 'lees_edwards', 'kraynik_reinelt'")

@@ -9,7 +9,8 @@ Layout written:
          box                    dimension = 3, boundary = periodic ×3
               edges/{step,time,value (T, 3)}     sampled with the positions (T, 3, 3
                                                  lattice vectors in Lees–Edwards
-                                                 shear, see box_edges), or the fixed
+                                                 shear and Kraynik–Reinelt planar
+                                                 elongation, see box_edges), or the fixed
                                                  (3,) edge lengths without frames
          species                (N,) HDF5 enumeration: species index → name
          position/{step,time,value (T, N, 3)}    every output.trajectory_every
@@ -69,11 +70,18 @@ def box_edges(bound_box) -> np.ndarray:
     gives its lattice vectors as rows (3, 3), a1 = (L_x, 0, 0), a2 = (Δ, L_y, 0),
     a3 = (0, 0, L_z) with Δ its current offset (H5MD "triclinic"): the periodic
     images of a sheared system are exactly those of this lattice, so tools that read
-    triclinic boxes (MDAnalysis) find the right minimum images.
+    triclinic boxes (MDAnalysis) find the right minimum images.  A Kraynik–Reinelt
+    box gives its current primary cell the same way, rows (frame axis 0, y, frame axis
+    2) of jaxdpd.boxes.kraynik_reinelt, tilted in the x–z plane and centred on the
+    stagnation point (tools that rotate a triclinic cell into a standard orientation
+    lose that tilt).
 
     Args:
         bound_box: the simulation's box bound to a state's box_state.
     """
+    lattice = getattr(bound_box, "lattice_vectors", None)
+    if lattice is not None:
+        return np.asarray(lattice, np.float64).T
     lengths = np.asarray(bound_box.lengths, np.float64)
     offset = getattr(bound_box, "offset", None)
     if offset is None:

@@ -89,7 +89,8 @@ def coupled_step(
         dt: MD time step Δt.
         substeps: n = τ/Δt, MD steps per LB step (static).
         interactions: `interactions(positions, velocities, state) -> (forces, virial,
-            pair_list, bits)`, the conservative bead forces (see jaxdpd.integrators).
+            state, bits)`, the conservative bead forces and the state with its
+            neighbour lists refreshed (see jaxdpd.integrators).
         fluid: the fluid's parameters (its k_BT is the beads' too).
         friction: bare friction ζ (mass/time).
         dtype: floating dtype.
@@ -119,10 +120,10 @@ def coupled_step(
     runaway_scale = kT if kT > 0 else np.inf
 
     def forces_at(positions, velocities, state):
-        forces, virial, pair_list, bits = interactions(positions, velocities, state)
+        forces, virial, refreshed, bits = interactions(positions, velocities, state)
         if external_force is not None:
             forces = forces + external_force(state)
-        return forces, virial, pair_list, bits
+        return forces, virial, refreshed, bits
 
     body_impulse = None
     if fluid_force_density is not None:
@@ -162,7 +163,7 @@ def coupled_step(
         impulse_field = spread(solvent.impulse, stencil, -inverse_volume * impulse)
         positions, image = box.wrap(midpoint + half * coupled, state.image)
         advanced = state.set(positions=positions, image=image, step=new_step)
-        forces, virial, pair_list, bits = forces_at(positions, coupled, advanced)
+        forces, virial, advanced, bits = forces_at(positions, coupled, advanced)
         velocities = coupled + half * forces / bead_mass
         solvent = FluidState(solvent.deviations, solvent.velocity, impulse_field)
         if substeps == 1:
@@ -177,12 +178,17 @@ def coupled_step(
         return advanced.set(
             velocities=velocities,
             forces=forces,
-            pair_list=pair_list,
             virial=virial,
             time=state.time + dt_,
             solvent_state=solvent,
             flags=_flag(
-                state, positions, velocities, pair_list, runaway_scale, bits | fluid_bits, masses
+                state,
+                positions,
+                velocities,
+                advanced.pair_list,
+                runaway_scale,
+                bits | fluid_bits,
+                masses,
             ),
         )
 

@@ -3,8 +3,21 @@
 For each chain block (species) the step records, averaged over its chains:
     <species>/bond_length_sq      ⟨Q²⟩ over all springs          (thesis eq. 4.8 for
                                                                   FENE dumbbells)
+    <species>/bond_conformation   (3, 3) conformation tensor ⟨Q Q⟩ over all springs
+                                  (thesis eqs. 4.16–4.18: its xy and normal
+                                  components under shear)
+    <species>/fractional_extension      ⟨|R_e|⟩/L_c, L_c = (M − 1) Q0 the contour
+    <species>/fractional_extension_sq   ⟨R_e²⟩/L_c², for finitely extensible laws
+                                  (FENE, FENE-log); for dumbbells R_e = Q, so the
+                                  latter is the thesis's ⟨Q²⟩/Q0² (fig. 4-10)
     <species>/end_to_end_sq       ⟨R_e²⟩, R_e = r_M − r_1         (chains of M > 2)
+    <species>/end_to_end_conformation   (3, 3) ⟨R_e R_e⟩            (M > 2)
     <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (M > 2)
+and, with "pressure" and a [pair] too (`spring_pair_pressure`):
+    <species>/spring_pair_pressure  (3, 3) the soft repulsion between the two beads
+                                  of every spring as a pressure tensor: the
+                                  intramolecular excluded-volume stress that DPD
+                                  adds to the springs' Kramers stress (thesis §4.2.6)
 Chains are reconstructed in one piece across periodic boundaries (thesis §3.2.4).
 `ideal_references` gives the values these would take without pair forces.
 """
@@ -13,40 +26,82 @@ import jax.numpy as jnp
 
 from jaxdpd.observables.conformation import (
     bond_vectors,
+    conformation_tensor,
     end_to_end_squared,
+    end_to_end_vector,
+    fractional_extension,
     gyration_radius_squared,
 )
+from jaxdpd.pairs import soft_repulsion
 from jaxdpd.topology import chain_coordinates
 
 
-def conformation_samples(box, positions, blocks) -> dict:
-    """The per-step conformation scalars of every block (traced, inside the scan).
+def conformation_samples(box, positions, blocks, parameters=None) -> dict:
+    """The per-step conformation samples of every block (traced, inside the scan).
 
     Args:
-        box: the periodic box.
+        box: the (bound) box.
         positions: (N, 3) wrapped positions.
         blocks: the scene's ChainBlocks.
+        parameters: the state's traced parameters (jaxdpd.parameters), whose bond
+            max_extension gives the contour length; None: the scene's values.
     Returns:
-        name → scalar, names as in the module docstring.
+        name → scalar or (3, 3) tensor, names as in the module docstring.
     """
     samples = {}
     for block in blocks:
+        name = block.species
         chains = chain_coordinates(box, positions, block)
         springs = bond_vectors(chains)
-        samples[f"{block.species}/bond_length_sq"] = jnp.mean(jnp.sum(springs**2, axis=-1))
+        samples[f"{name}/bond_length_sq"] = jnp.mean(jnp.sum(springs**2, axis=-1))
+        samples[f"{name}/bond_conformation"] = conformation_tensor(springs, axis=(0, 1))
+        law = block.law
+        if parameters is not None:
+            law = law.with_parameters(parameters["bond"][name])
+        if law.max_extension is not None:
+            extension = fractional_extension(chains, (block.beads - 1) * law.max_extension)
+            samples[f"{name}/fractional_extension"] = jnp.mean(extension)
+            samples[f"{name}/fractional_extension_sq"] = jnp.mean(extension**2)
         if block.beads > 2:
-            samples[f"{block.species}/end_to_end_sq"] = jnp.mean(end_to_end_squared(chains))
-            samples[f"{block.species}/gyration_radius_sq"] = jnp.mean(
-                gyration_radius_squared(chains)
+            samples[f"{name}/end_to_end_sq"] = jnp.mean(end_to_end_squared(chains))
+            samples[f"{name}/end_to_end_conformation"] = conformation_tensor(
+                end_to_end_vector(chains)
             )
+            samples[f"{name}/gyration_radius_sq"] = jnp.mean(gyration_radius_squared(chains))
     return samples
+
+
+def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume: float):
+    """The conservative pair force across each spring of a block, as a pressure.
+
+    (1/V) Σ_springs Q ⊗ a (1 − Q/r_c) Q/|Q| for |Q| < r_c (thesis eq. 3.46 restricted
+    to the bonded pairs; positive = repulsive, as "pressure_tensor_part/conservative",
+    of which it is a part).  Only the two beads a spring joins are counted, not other
+    pairs of one chain.
+
+    Args:
+        box: the (bound) box.
+        positions: (N, 3) wrapped positions.
+        block: a ChainBlock.
+        strength: a of the block's species with itself (energy/length).
+        cutoff: r_c.
+        volume: box volume.
+    Returns:
+        (3, 3) tensor (units of pressure).
+    """
+    springs = bond_vectors(chain_coordinates(box, positions, block)).reshape(-1, 3)
+    length = jnp.sqrt(jnp.sum(springs * springs, axis=-1))
+    weight = jnp.clip(1 - length / cutoff, 0, None)
+    along = soft_repulsion(weight, strength) / jnp.maximum(length, jnp.finfo(length.dtype).tiny)
+    return jnp.einsum("k,ka,kb->ab", along, springs, springs) / volume
 
 
 def ideal_references(blocks, kT: float) -> dict:
     """Exact values of the conformation series for chains without pair forces.
 
     FENE springs: ⟨Q²⟩ = 3 Q0²/(b + 5), b = H Q0²/k_BT (thesis eq. 4.8, exact for one
-    spring); Hookean chains of M beads, l² = 3 k_BT/H: ⟨Q²⟩ = l², ⟨R_e²⟩ = (M − 1) l²,
+    spring; for dumbbells also ⟨Q²⟩/Q0² = 3/(b + 5)); Hookean chains of M beads,
+    l² = 3 k_BT/H: ⟨Q²⟩ = l², ⟨R_e²⟩ = (M − 1) l²,
     ⟨R_g²⟩ = l² (M² − 1)/(6M) (Doi & Edwards 1986, §2.1).  Other laws have none here.
 
     Returns:
@@ -59,6 +114,8 @@ def ideal_references(blocks, kT: float) -> dict:
             q0, h = parameters["max_extension"], parameters["spring_constant"]
             b = h * q0 * q0 / kT
             references[f"{block.species}/bond_length_sq"] = 3 * q0 * q0 / (b + 5)
+            if block.beads == 2:
+                references[f"{block.species}/fractional_extension_sq"] = 3 / (b + 5)
         if block.law.name == "hookean":
             l_sq = 3 * kT / parameters["spring_constant"]
             m = block.beads

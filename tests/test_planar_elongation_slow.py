@@ -1,0 +1,135 @@
+"""Long validations of planar elongation (marked slow; run with `pytest -m slow`).
+
+- Trouton ratios of the Newtonian DPD solvent against the Lees–Edwards viscosity in
+  boxes large enough for η to be that of the bulk fluid (thesis §4.3.3; eqs.
+  3.25–3.26 with eq. 5.12 give η̄1 = 4η, η̄2 = 2η).
+- The relaxation protocol of thesis §5.4.1 (eq. 5.15) on FENE chains.
+
+Tolerances: 4 standard errors (20 block averages per replica; standard errors over
+replicas for the relaxation curve), combined in quadrature.
+"""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import scene_dict
+from test_planar_elongation import elongation_scene, mean_and_error
+from test_shear_flow import collect_series, sheared_scene
+
+from jaxdpd import ensemble, flows, relaxation
+from jaxdpd.observables.elongation import elongational_material_functions
+from jaxdpd.scene import Scene
+from jaxdpd.simulation import build
+
+STEPS = 10000
+
+
+@pytest.mark.slow
+def test_trouton_ratios_against_the_lees_edwards_viscosity():
+    """η̄1/4 and η̄2/2 at ε̇ = 0.1 and 0.2 (two replicas, box 8 × 4 × 8, N = 768,
+    stable below ε̇ ≈ 0.7) equal η at γ̇ = 0.2 (two replicas, cube of N = 768): the
+    DPD fluid is Newtonian there (rates of strain 2ε̇ ≤ 0.4; thesis fig. 4-5)."""
+    rates = [0.1, 0.2]
+    simulation = build(elongation_scene([8.0, 4.0, 8.0], 0.0))
+    batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=[1, 2])
+    batch = ensemble.run(simulation, batch, 250, 250)
+    batch = flows.set_flow_rate(batch, "planar_elongation", jnp.asarray(rates))
+    _, series = collect_series(simulation, batch, STEPS, 500, run=ensemble.run)
+    functions = elongational_material_functions(series, np.asarray(rates), axis=1)
+
+    sheared = build(sheared_scene(0.0, 768, "float32", bins=4))
+    batch = ensemble.replicate(sheared, sheared.init_fn(), seeds=[3, 4], shear_rates=[0.2, 0.2])
+    batch = ensemble.run(sheared, batch, 250, 250)
+    _, shear = collect_series(sheared, batch, STEPS, 500, run=ensemble.run)
+    eta, error = mean_and_error(-shear["pressure_tensor"][..., 0, 1] / 0.2, axis=1)
+    weights = 1 / error**2
+    eta, eta_error = np.sum(weights * eta) / np.sum(weights), 1 / np.sqrt(np.sum(weights))
+    print(f"η (Lees–Edwards) = {eta:.4f} ± {eta_error:.4f}")
+    for name, ratio in (("eta1", 4), ("eta2", 2)):
+        values, errors = functions[name]
+        print(f"{name}/{ratio} at ε̇ = {rates}: {values / ratio} ± {errors / ratio}")
+        assert np.all(np.abs(values - ratio * eta) < 4 * np.hypot(errors, ratio * eta_error))
+
+
+def chain_scene():
+    """FENE chains (10 beads, H = 2, Q0 = 2.45 < 0.45 L_y, b = 12) with ideal beads
+    (no conservative force on them) in the DPD solvent; box 8 × 5.5 × 8 (N = 1056, 30
+    chains), stable below ε̇ ≈ 0.38.  Δt = 0.02: at Δt = 0.04 a thermal relative
+    velocity of the ideal beads (4.6 along a spring at 0.94 Q0) carried a spring past
+    Q0 in one step."""
+    data = scene_dict(
+        box={"lengths": [8.0, 5.5, 8.0]},
+        integrator={"dt": 0.02, "lambda": 0.65},
+        precision="float32",
+        pair={"a": {"solvent-solvent": 25.0, "solvent-chain": 0.0, "chain-chain": 0.0}},
+        polymers=[
+            {
+                "species": "chain",
+                "beads": 10,
+                "bond": {"law": "fene", "spring_constant": 2.0, "max_extension": 2.45},
+            }
+        ],
+        flow={"kind": "planar_elongation", "elongation_rate": 0.0},
+        output={"observables": ["temperature", "conformation"]},
+    )
+    data["particles"] = {
+        "count": 1056,
+        "species": [{"name": "solvent", "count": 756}, {"name": "chain", "count": 300}],
+    }
+    return Scene.from_dict(data)
+
+
+@pytest.mark.slow
+def test_chains_stretched_and_released_relax_to_equilibrium():
+    """Thesis §5.4.1 protocol on eight replicas: stretched at ε̇ = 0.3 for a strain of
+    3 the chains swell several-fold; with the rate set to zero the lattice stops
+    (strain constant) and ⟨R_e²⟩ decays to its equilibrium value.
+
+    Reference: the beads are ideal (no force but the springs), so the springs of a
+    chain are independent and ⟨R_e²⟩ = (M − 1) ⟨Q²⟩ = (M − 1) 3 Q0²/(b + 5) (thesis
+    eq. 4.8), 9.53 here.  Tolerances: 4 standard errors over the replicas (each
+    replica's curve is independent of the others) plus 2 % for the time-step bias
+    of the configurational temperature (at rest this scene gives ⟨Q²⟩ 1.1 % above
+    eq. 4.8).  Checked: the mean of each replica's curve after t = 12 (8 fitted
+    relaxation times), and the plateau L_e² of eq. 5.15 fitted to t ≥ 2 with its
+    jackknife error over replicas."""
+    simulation = build(chain_scene())
+    scene = simulation.scene
+    bond = scene.polymers[0].bond_parameters
+    q0, beads = bond["max_extension"], scene.polymers[0].beads
+    b = bond["spring_constant"] * q0**2 / scene.solvent.kT
+    reference = (beads - 1) * 3 * q0**2 / (b + 5)
+    batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=list(range(1, 9)))
+    batch = ensemble.run(simulation, batch, 1000, 250)
+    strain_before = np.asarray(batch.box_state.strain)
+    stretch_steps, rate = 500, 0.3
+    result = relaxation.stretch_and_relax(
+        simulation, batch, "chain", stretch_steps, 1250, 250, stretch_rate=rate, fit_after=2.0
+    )
+    late = result.per_replica[:, result.times >= 12].mean(axis=1)
+    late_mean, late_error = late.mean(), late.std(ddof=1) / np.sqrt(len(late))
+    fit = result.fit
+    print(
+        f"⟨R_e²⟩ reference {reference:.3f}, stretched {result.stretched:.2f}, after t = 12 "
+        f"{late_mean:.3f} ± {late_error:.3f}; fit {fit.names} = {fit.values} ± {fit.errors}"
+    )
+    assert result.stretched > 3 * reference
+    assert np.all(np.asarray(result.state.box_state.elongation_rate) == 0)
+    period = simulation.box.period
+    expected = strain_before + rate * scene.integrator.dt * stretch_steps
+    expected = (expected + period / 2) % period - period / 2
+    np.testing.assert_allclose(np.asarray(result.state.box_state.strain), expected, atol=1e-4)
+    assert abs(late_mean - reference) < 4 * late_error + 0.02 * reference
+    assert abs(fit["plateau"] - reference) < 4 * fit.error("plateau") + 0.02 * reference
+    assert 0 < fit.error("relaxation_time") < 0.5 * fit["relaxation_time"]
+
+
+def test_relaxation_protocol_names_what_the_scene_lacks():
+    """The protocol refuses a species that is not chained and a scene that does not
+    record the conformation, naming the field (building compiles nothing)."""
+    scene = chain_scene()
+    with pytest.raises(ValueError, match="species = 'solvent'"):
+        relaxation.end_to_end_series_name(build(scene), "solvent")
+    missing = scene.replace(output={"observables": ["temperature"]})
+    with pytest.raises(ValueError, match="add 'conformation'"):
+        relaxation.end_to_end_series_name(build(missing), "chain")
