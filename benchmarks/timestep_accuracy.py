@@ -12,6 +12,7 @@ Writes benchmarks/results/timestep_accuracy.json.
 """
 
 import argparse
+import math
 import time
 
 import numpy as np
@@ -23,36 +24,61 @@ from jaxdpd.simulation import build
 from jaxdpd.statistics import block_average
 
 
-def measure(n: int, dt: float, lam: float, sample_time: float, equilibration_time: float):
-    scene = Scene.from_dict(
-        {
-            "seed": 11,
-            "precision": "float64",
-            "particles": {"density": 3.0, "count": n},
-            "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
-            "pair": {"a": 25.0},
-            "integrator": {"dt": dt, "lambda": lam},
-            "output": {"observables": ["temperature", "pressure"]},
-        }
-    )
-    simulation = build(scene)
-    steps = round(sample_time / dt)
-    chunk = max(1, steps // 20)
-    state = simulation.init_fn()
-    state = driver.run(simulation, state, round(equilibration_time / dt), chunk)
-    series = {"temperature": [], "pressure": []}
+def sample(data: dict, steps: int, chunk: int, equilibration_steps: int):
+    """Run a scene and time its sampling.
+
+    Args:
+        data: the scene as a dictionary (`Scene.from_dict`).
+        steps: sampled steps, a whole number of chunks.
+        chunk: steps per jitted scan (one compilation serves equilibration, warm-up
+            and sampling when `equilibration_steps` is a multiple of it).
+        equilibration_steps: steps run before sampling, not timed.
+    Returns:
+        (series: name → per-step NumPy array over the sampled steps, wall seconds of
+        the sampled steps, compilation excluded).
+    """
+    simulation = build(Scene.from_dict(data))
+    state = driver.run(simulation, simulation.init_fn(), equilibration_steps, chunk)
+    parts = {}
 
     def collect(result):
-        for name in series:
-            series[name].append(result.series[name])
+        for name, values in result.series.items():
+            parts.setdefault(name, []).append(values)
 
     driver.run(simulation, state, chunk, chunk)  # compile outside the timing
     start = time.perf_counter()
-    driver.run(simulation, state, chunk * 20, chunk, on_chunk=collect)
+    driver.run(simulation, state, steps, chunk, on_chunk=collect)
     seconds = time.perf_counter() - start
+    return {name: np.concatenate(values) for name, values in parts.items()}, seconds
+
+
+def measure(
+    n: int,
+    dt: float,
+    lam: float,
+    sample_time: float,
+    equilibration_time: float,
+    precision: str = "float64",
+    skin: float = 0.0,
+):
+    """⟨k_BT⟩ and pressure (20 block averages) and wall seconds per time unit of the
+    Groot–Warren fluid at one (Δt, λ, precision, neighbour skin)."""
+    scene = {
+        "seed": 11,
+        "precision": precision,
+        "particles": {"density": 3.0, "count": n},
+        "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
+        "pair": {"a": 25.0},
+        "integrator": {"dt": dt, "lambda": lam},
+        "neighbors": {"skin": skin},
+        "output": {"observables": ["temperature", "pressure"]},
+    }
+    chunk = max(1, round(sample_time / dt) // 20)
+    equilibration = chunk * math.ceil(equilibration_time / dt / chunk)
+    series, seconds = sample(scene, chunk * 20, chunk, equilibration)
     row = {"dt": dt, "lambda": lam, "steps": chunk * 20}
-    for name, parts in series.items():
-        mean, error = block_average(np.concatenate(parts), n_blocks=20)
+    for name in ("temperature", "pressure"):
+        mean, error = block_average(series[name], n_blocks=20)
         row[name] = float(mean)
         row[f"{name}_err"] = float(error)
     row["kT_deviation_%"] = 100 * (row["temperature"] - 1.0)
