@@ -14,7 +14,8 @@ of 20 block averages of the per-step mean over all dumbbells.
 
 Usage:
     python benchmarks/dumbbell_size.py [--q0 3 5 10 20] [--equilibration 500] [--steps 1000]
-Writes benchmarks/results/dumbbell_size.json.
+        [--dt 0.04]
+Writes benchmarks/results/dumbbell_size.json (dumbbell_size_dt<Δt>.json for another Δt).
 """
 
 import argparse
@@ -31,9 +32,10 @@ from jaxdpd.statistics import block_average
 B = 50.0
 DENSITY = 3.0
 POLYMER_FRACTION = 0.25
+DEFAULT_TIME_STEP = 0.04
 
 
-def dumbbell_scene(max_extension: float) -> Scene:
+def dumbbell_scene(max_extension: float, time_step: float = DEFAULT_TIME_STEP) -> Scene:
     side = max(2 * max_extension + 1, 8.0)
     return Scene.from_dict(
         {
@@ -60,14 +62,14 @@ def dumbbell_scene(max_extension: float) -> Scene:
                     },
                 }
             ],
-            "integrator": {"dt": 0.04, "lambda": 0.65},
+            "integrator": {"dt": time_step, "lambda": 0.65},
             "output": {"observables": ["temperature", "conformation"]},
         }
     )
 
 
-def measure(max_extension: float, equilibration: int, steps: int) -> dict:
-    scene = dumbbell_scene(max_extension)
+def measure(max_extension: float, equilibration: int, steps: int, time_step: float) -> dict:
+    scene = dumbbell_scene(max_extension, time_step)
     simulation = build(scene)
     chunk = max(1, steps // 20)
     state = driver.run(simulation, simulation.init_fn(), equilibration, chunk)
@@ -104,16 +106,24 @@ def main() -> None:
     parser.add_argument("--q0", type=float, nargs="+", default=[3.0, 5.0, 10.0, 20.0])
     parser.add_argument("--equilibration", type=int, default=500)
     parser.add_argument("--steps", type=int, default=1000)
+    parser.add_argument("--dt", type=float, default=DEFAULT_TIME_STEP, help="time step Δt")
     args = parser.parse_args()
     rows = []
     for max_extension in args.q0:
-        rows.append(measure(max_extension, args.equilibration, args.steps))
+        rows.append(measure(max_extension, args.equilibration, args.steps, args.dt))
         print_table(list(rows[-1]), rows[-1:])
     print()
     print_table(list(rows[0]), rows)
+    name = "dumbbell_size" if args.dt == DEFAULT_TIME_STEP else f"dumbbell_size_dt{args.dt:g}"
     path = write_json(
-        "dumbbell_size",
-        {"b": B, "equilibration": args.equilibration, "steps": args.steps, "rows": rows},
+        name,
+        {
+            "b": B,
+            "dt": args.dt,
+            "equilibration": args.equilibration,
+            "steps": args.steps,
+            "rows": rows,
+        },
     )
     print(f"wrote {path}")
 
