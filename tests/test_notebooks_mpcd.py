@@ -1,16 +1,13 @@
 """Execute notebooks/mpcd_zimm.ipynb in quick mode (JAXDPD_QUICK=1).
 
-Marked slow: with the kernel start and three compiled programs (two chain lengths and
-the free monomers) it takes about 15 s of notebook time alone on 2 cores, but the
-machine is shared with the default run's other workers, and the quick mode checks no
-physics (its runs are far too short to mean anything): the full-mode outputs stored in
-the notebook are the result."""
+About 13 s alone on 2 cores (kernel start and three compiled programs: two chain
+lengths and the free monomers).  The quick mode checks that the notebook runs end to
+end, not the physics: its runs are far too short to mean anything; the full-mode
+outputs stored in the notebook are the result."""
 
-import pytest
 from notebook_runner import run_quick_mode
 
 
-@pytest.mark.slow
 def test_mpcd_zimm_notebook_quick_mode(monkeypatch):
     """Runs every cell without error: Gaussian chains of two lengths and free monomers
     in an SRD solvent, the ideal-chain statics, Rouse-mode correlation times against
