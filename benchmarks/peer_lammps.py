@@ -53,6 +53,7 @@ class LammpsFluid:
 
     def __init__(self, lammps, n: int, steps: int, equilibration: int, threads: int):
         self.steps = steps
+        self.first_chunk = True
         self.record = tempfile.NamedTemporaryFile(suffix=".txt", delete=False).name
         side = (n / DENSITY) ** (1 / 3)
         options = ["-log", "none", "-screen", "none", "-sf", "omp", "-pk", "omp", str(threads)]
@@ -80,8 +81,15 @@ fix record all ave/time 1 1 1 c_thermo_temp c_p file {self.record}
         )
 
     def run_chunk(self) -> float:
+        """Time one chunk.  Only the first chunk runs LAMMPS's setup (`pre yes`): a setup
+        recomputes the forces with the full-step velocities, so the dissipative force of
+        every chunk's first step would differ from velocity Verlet's half-step one, which
+        lowers k_BT measurably (1.0227 ± 0.0011 against 1.0273 ± 0.0007 at N = 3000 with
+        chunks of 100 steps)."""
+        setup = "yes" if self.first_chunk else "no"
+        self.first_chunk = False
         start = time.perf_counter()
-        self.lmp.command(f"run {self.steps}")
+        self.lmp.command(f"run {self.steps} pre {setup} post no")
         return time.perf_counter() - start
 
     def series(self) -> dict:
