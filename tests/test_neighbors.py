@@ -9,6 +9,7 @@ import pytest
 
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.neighbors import neighbor_search
+from jaxdpd.neighbors.cell_list import crowd_capacity, dense_tier
 from jaxdpd.pairwise import pair_geometry
 
 
@@ -136,3 +137,62 @@ def test_overflow_is_flagged_and_needs_are_recorded():
     )
     assert not bool(bigger.overflow)
     assert listed_pairs(bigger, n) == set(brute_force_pairs(crowded, lengths, 1.0))
+
+
+def clustered_positions(rng, n, clusters, per_cluster, per_other):
+    """`clusters` unit cells of a 6³ box holding `per_cluster` particles each (in a
+    0.3-wide corner of the cell), the others `per_other` to a remaining cell."""
+    cells = np.array(list(itertools.product(range(6), repeat=3)), np.float64)
+    order = rng.permutation(len(cells))
+    crowded_cells, other_cells = cells[order[:clusters]], cells[order[clusters:]]
+    crowded = np.repeat(crowded_cells, per_cluster, axis=0) + 0.1
+    crowded += rng.uniform(0, 0.3, crowded.shape)
+    rest = n - len(crowded)
+    assert rest <= per_other * len(other_cells)
+    others = np.repeat(other_cells, per_other, axis=0)[:rest]
+    others += rng.uniform(0.05, 0.95, others.shape)
+    return jnp.asarray(np.concatenate([crowded, others]))
+
+
+def test_crowded_particles_are_listed_and_too_many_ask_for_larger_cells():
+    """Particles above the dense tier of their cell (cell_list's module docstring)
+    are found by a separate gather path, in an order that does not depend on the
+    buffer sizes; more of them than the buffers hold flag an overflow whose recorded
+    occupancy, on reallocation, makes room for them."""
+    lengths = (6.0, 6.0, 6.0)
+    n = 600
+    box = PeriodicBox(lengths)
+    search = neighbor_search(box, n, 1.0, 0.0)
+    rng = np.random.default_rng(3)
+    pair_list = search.allocate(jnp.asarray(rng.uniform(0, 6.0, (n, 3))))
+    capacity = pair_list.cell_capacity
+    dense = dense_tier(n, 216)
+    room = crowd_capacity(n, capacity, dense)
+    per_cluster = capacity  # the cells themselves do not overflow
+    crowded_per_cluster = capacity - dense
+    update = jax.jit(search.update)
+    # Crowded particles within the room: listed exactly once, like the others.
+    few = clustered_positions(rng, n, 3, per_cluster, dense - 1)
+    assert 0 < 3 * crowded_per_cluster <= room
+    listed = update(few, pair_list)
+    assert not bool(listed.overflow)
+    pairs = listed_pairs(listed, n)
+    assert len(pairs) == int((np.asarray(listed.i) < n).sum())  # no pair twice
+    assert pairs == set(brute_force_pairs(few, lengths, 1.0))
+    # The same pairs in the same order from buffers of another size.
+    larger = search.allocate(few, 2.0, minimum=(0, capacity + 5))
+    assert larger.cell_capacity > capacity and larger.capacity > pair_list.capacity
+    np.testing.assert_array_equal(larger.i[: pair_list.capacity], listed.i)
+    np.testing.assert_array_equal(larger.j[: pair_list.capacity], listed.j)
+    # Too many: flagged, with a cell occupancy beyond the current capacity.
+    clusters = room // crowded_per_cluster + 1
+    many = clustered_positions(rng, n, clusters, per_cluster, dense - 1)
+    flagged = update(many, pair_list)
+    assert bool(flagged.overflow)
+    assert int(flagged.needed_cell_occupancy) > capacity
+    bigger = search.allocate(
+        many, minimum=(int(flagged.needed_pairs), int(flagged.needed_cell_occupancy))
+    )
+    assert not bool(bigger.overflow)
+    assert crowd_capacity(n, bigger.cell_capacity, dense) >= clusters * crowded_per_cluster
+    assert listed_pairs(bigger, n) == set(brute_force_pairs(many, lengths, 1.0))
