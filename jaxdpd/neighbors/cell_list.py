@@ -209,10 +209,10 @@ def dense_tier(n_particles: int, n_cells_total: int) -> int:
 
 def crowd_capacity(n_particles: int, cell_capacity: int, dense: int) -> int:
     """How many particles the buffers hold above the dense tier: ⌈N/200⌉ + 32 while
-    the cell capacity is at most twice the tier, doubling with every slot beyond (so
-    an overflow's larger cells make room quickly), and at most N."""
-    growth = max(0, cell_capacity - 2 * dense)
-    return min(n_particles, (math.ceil(n_particles / 200) + 32) << min(growth, 30))
+    the cell capacity is at most twice the tier, one more such share for every slot
+    beyond (so an overflow's larger cells make room), and at most N."""
+    shares = max(1, cell_capacity - 2 * dense + 1)
+    return min(n_particles, (math.ceil(n_particles / 200) + 32) * shares)
 
 
 def full_stencil(n_cells: tuple[int, int, int]) -> list[tuple[int, int, int]]:
