@@ -12,11 +12,10 @@ Writes benchmarks/results/step_split.json.
 """
 
 import argparse
-import time
 
 import jax
 import jax.numpy as jnp
-from _common import print_table, write_json
+from _common import print_table, timed, write_json
 from dpd_throughput import fluid_scene
 
 from jaxdpd import driver
@@ -24,13 +23,9 @@ from jaxdpd.simulation import build
 
 
 def best_seconds(function, argument, repeats: int) -> float:
-    jax.block_until_ready(function(argument))
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        jax.block_until_ready(function(argument))
-        times.append(time.perf_counter() - start)
-    return min(times)
+    """Fastest of `repeats` calls after one warm-up (compilation) call."""
+    timed(function, argument)
+    return min(timed(function, argument)[1] for _ in range(repeats))
 
 
 def split(n: int, steps: int, repeats: int) -> dict:

@@ -68,12 +68,17 @@ def cell_grid(box, list_cutoff: float) -> tuple[int, int, int]:
     return tuple(counts)
 
 
+def full_stencil(n_cells: tuple[int, int, int]) -> list[tuple[int, int, int]]:
+    """All offsets of {−1, 0, 1}³ (only 0 along single-cell axes): the cells around
+    a cell, each met once (the grid has ≥ 3 cells per axis)."""
+    return list(itertools.product(*[(-1, 0, 1) if n >= 3 else (0,) for n in n_cells]))
+
+
 def stencil(n_cells: tuple[int, int, int]) -> list[tuple[int, int, int]]:
     """The own cell (0, 0, 0) followed by the lexicographically positive offsets of
-    {−1, 0, 1}³ (only 0 along single-cell axes): every unordered pair of distinct
-    cells is visited from exactly one side."""
-    choices = [(-1, 0, 1) if n >= 3 else (0,) for n in n_cells]
-    return [(0, 0, 0)] + [o for o in itertools.product(*choices) if o > (0, 0, 0)]
+    `full_stencil`: every unordered pair of distinct cells is visited from exactly
+    one side."""
+    return [(0, 0, 0)] + [o for o in full_stencil(n_cells) if o > (0, 0, 0)]
 
 
 def _select_bit(words, rank):
@@ -215,13 +220,7 @@ def crowd_capacity(n_particles: int, cell_capacity: int, dense: int) -> int:
     return min(n_particles, (math.ceil(n_particles / 200) + 32) * shares)
 
 
-def full_stencil(n_cells: tuple[int, int, int]) -> list[tuple[int, int, int]]:
-    """All 27 offsets of {−1, 0, 1}³ (only 0 along single-cell axes): the cells
-    around a crowded particle, each met once (the grid has ≥ 3 cells per axis)."""
-    return list(itertools.product(*[(-1, 0, 1) if n >= 3 else (0,) for n in n_cells]))
-
-
-def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, list_cutoff, dense):
+def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, around, list_cutoff, dense):
     """Candidate tests of the crowded particles (slots at or above the dense tier).
 
     Each crowded particle p is tested against every slot of the cells of
@@ -232,6 +231,7 @@ def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, list_cutof
         members: (slots, cells) particle in each slot (N when empty).
         slot: (N,) each particle's slot in its cell.
         cell_xyz: (N, 3) cell coordinates.
+        around: (offsets, 3) int32 table of `full_stencil`.
         dense: slots in the dense tier.
     Returns:
         crowded: (K,) crowded particles in index order (N in unused rows), K =
@@ -246,7 +246,6 @@ def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, list_cutof
     room = crowd_capacity(n, cell_capacity, dense)
     crowded = jnp.nonzero(is_crowded, size=room, fill_value=n)[0].astype(jnp.int32)
     safe = jnp.minimum(crowded, n - 1)
-    around = jnp.asarray(full_stencil(n_cells), jnp.int32)
     cells = _cell_id((cell_xyz[safe][:, None, :] + around[None]) % jnp.asarray(n_cells), n_cells)
     # Whole cells are gathered as rows: (K, offsets, slots) and (K, offsets, slots, 3).
     partners = members.T[cells]
@@ -383,7 +382,7 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
         dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), cell_ids]
         dense_rows = jnp.where(slot < dense, dense_rows, jnp.uint64(0))
         crowded, crowd, crowded_rows = _crowded_rows(
-            bound_box, frame, members, slot, cell_xyz, n_cells, list_cutoff, dense
+            bound_box, frame, members, slot, cell_xyz, n_cells, around_table, list_cutoff, dense
         )
         dense_entries = dense_rows.size
         entry, bit, valid, total = _compact(
