@@ -99,6 +99,7 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
 
 import json
 import math
+from fractions import Fraction
 import tomllib
 from dataclasses import asdict, dataclass, field
 
@@ -1013,7 +1014,7 @@ def _read_particles(section, lengths, chain_lengths: dict):
                 "particles: without box.lengths give both particles.density and "
                 "particles.count (the box is then cubic)"
             )
-        side = (count / density) ** (1.0 / 3.0)
+        side = cube_root(count / density)
         if not math.isfinite(side):
             raise ValueError(
                 f"particles.density = {density}: a cubic box of {count} particles at this "
@@ -1023,6 +1024,22 @@ def _read_particles(section, lengths, chain_lengths: dict):
         density = count / math.prod(lengths)
     species = _read_species(section.get("species", [{"name": "solvent"}]), count, chain_lengths)
     return Particles(count=count, density=density, species=species), lengths
+
+
+def cube_root(volume: float) -> float:
+    """The float nearest to volume^(1/3).
+
+    `volume ** (1/3)` is often an ulp or two short (1000 ** (1/3) = 9.999999999999998)
+    and `math.cbrt` can be an ulp off (cbrt(27) = 3.0000000000000004).  A box of
+    N = 1000 ρ particles then has side 9.99… instead of 10, and its cell list 9
+    cells of 1.11 r_c per axis instead of 10 of r_c: 1.11³ = 1.37 times the
+    candidate pairs.  The neighbours of math.cbrt's result are compared exactly.
+    """
+    if not math.isfinite(volume) or volume <= 0:
+        return volume ** (1.0 / 3.0)
+    guess = math.cbrt(volume)
+    candidates = (math.nextafter(guess, 0.0), guess, math.nextafter(guess, math.inf))
+    return min(candidates, key=lambda side: abs(Fraction(side) ** 3 - Fraction(volume)))
 
 
 def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ...]:

@@ -1,16 +1,19 @@
 """Neighbour lists against a brute-force O(N²) minimum-image search."""
 
 import itertools
+from fractions import Fraction
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import scene_dict
 
 from jaxdpd.boxes import PeriodicBox
 from jaxdpd.neighbors import neighbor_search
-from jaxdpd.neighbors.cell_list import crowd_capacity, dense_tier
+from jaxdpd.neighbors.cell_list import cell_grid, crowd_capacity, dense_tier
 from jaxdpd.pairwise import pair_geometry
+from jaxdpd.scene import Scene, cube_root
 
 
 def brute_force_pairs(positions, lengths, cutoff):
@@ -196,3 +199,28 @@ def test_crowded_particles_are_listed_and_too_many_ask_for_larger_cells():
     assert not bool(bigger.overflow)
     assert crowd_capacity(n, bigger.cell_capacity, dense) >= clusters * crowded_per_cluster
     assert listed_pairs(bigger, n) == set(brute_force_pairs(many, lengths, 1.0))
+
+
+@pytest.mark.parametrize("count, density, side", [(3000, 3.0, 10), (24000, 3.0, 20), (81, 3.0, 3)])
+def test_a_cubic_box_of_a_perfect_cube_volume_has_the_exact_side_and_cell_grid(
+    count, density, side
+):
+    """N/ρ = side³ exactly: the box side is that integer (floating `** (1/3)` gives
+    9.999999999999998 for 1000), so a skin-free list at r_c = 1 has `side` cells per
+    axis of edge r_c, not side − 1 cells of edge side/(side − 1)."""
+    scene = Scene.from_dict(scene_dict(particles={"density": density, "count": count}))
+    assert scene.box.lengths == (side, side, side)
+    assert cell_grid(PeriodicBox(scene.box.lengths), 1.0) == (side,) * 3
+
+
+@pytest.mark.parametrize("volume", [2.0, 1000.0 / 3.0, 32000.0, 1e-9, 7.5e6])
+def test_the_box_side_is_the_float_nearest_the_cube_root(volume):
+    """No neighbouring float's cube is closer to the volume (exact rational
+    arithmetic, the definition of correct rounding)."""
+    side = cube_root(volume)
+
+    def error(s):
+        return abs(Fraction(s) ** 3 - Fraction(volume))
+
+    assert error(side) <= error(np.nextafter(side, 0.0))
+    assert error(side) <= error(np.nextafter(side, np.inf))
