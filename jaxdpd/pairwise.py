@@ -2,9 +2,9 @@
 
 Every pair law in jaxdpd (forces, thermostat forces, impulses) is central: it acts
 along the unit vector e_ij = (r_i − r_j)/r_ij with a scalar magnitude m_ij (positive
-= repulsive).  `pair_geometry` measures the pairs once; `accumulate` turns the
-magnitudes into per-particle vectors Σ_j m_ij e_ij and `pair_virial` gives a law's
-virial Σ_pairs r_ij ⊗ m_ij e_ij.  Components are handled as separate arrays (structure of
+= repulsive).  `pair_geometry` measures the pairs once; `pair_sums` turns the
+magnitudes of several laws into per-particle vectors Σ_j m_ij e_ij and each law's
+virial Σ_pairs r_ij ⊗ m_ij e_ij (`accumulate` does the first for one law).  Components are handled as separate arrays (structure of
 arrays), which XLA vectorises well on CPU.
 """
 
@@ -98,14 +98,47 @@ def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairG
     return PairGeometry(i, j, separation, distance, inverse, within, weight, n, half, streaming)
 
 
-def _force_components(geometry: PairGeometry, magnitude):
-    """(m_ij e_ij,x, m_ij e_ij,y, m_ij e_ij,z) of every listed pair."""
-    scale = magnitude * geometry.inverse_distance
-    return [scale * s for s in geometry.separation]
+def pair_sums(geometry: PairGeometry, magnitudes: dict, with_virial: bool):
+    """Per-particle sums and virials of central pair laws.
+
+    Each law's magnitude is divided by the distance once, m_ij / r_ij: a
+    division, which XLA materialises instead of re-evaluating it (noise hash
+    included) inside every consumer, as it would a product with 1/r_ij.
+
+    Args:
+        geometry: from `pair_geometry`.
+        magnitudes: {name: (P,) magnitudes m_ij (0 where not `within`)}.
+        with_virial: also return each law's virial.
+    Returns:
+        ((N, 3) vectors Σ_j Σ_laws m_ij e_ij, {name: (3, 3) virial W_ab =
+        Σ_pairs (r_i − r_j)_a m_ij e_ij,b} (thesis eq. 3.46, each pair counted
+        once), or {} without `with_virial`).
+    """
+    scales = {name: m / geometry.distance for name, m in magnitudes.items()}
+    total = sum(scales.values())
+    n = geometry.n_particles
+    columns = []
+    for separation in geometry.separation:
+        component = total * separation
+        column = jax.ops.segment_sum(component, geometry.i, n)
+        if geometry.half:
+            column = column - jax.ops.segment_sum(component, geometry.j, n)
+        columns.append(column)
+    virials = {}
+    if with_virial:
+        count = 1.0 if geometry.half else 0.5  # a full list sees every pair twice
+        for name, scale in scales.items():
+            virials[name] = count * jnp.stack(
+                [
+                    jnp.stack([jnp.sum(sa * scale * sb) for sb in geometry.separation])
+                    for sa in geometry.separation
+                ]
+            )
+    return jnp.stack(columns, axis=1), virials
 
 
 def accumulate(geometry: PairGeometry, magnitude):
-    """Per-particle sums Σ_j m_ij e_ij (forces, or impulses) of central pair laws.
+    """Per-particle sums Σ_j m_ij e_ij (forces, or impulses) of one central pair law.
 
     Args:
         geometry: from `pair_geometry`.
@@ -113,22 +146,4 @@ def accumulate(geometry: PairGeometry, magnitude):
     Returns:
         (N, 3) vectors.
     """
-    n = geometry.n_particles
-    columns = []
-    for component in _force_components(geometry, magnitude):
-        total = jax.ops.segment_sum(component, geometry.i, n)
-        if geometry.half:
-            total = total - jax.ops.segment_sum(component, geometry.j, n)
-        columns.append(total)
-    return jnp.stack(columns, axis=1)
-
-
-def pair_virial(geometry: PairGeometry, magnitude):
-    """Virial W_ab = Σ_pairs (r_i − r_j)_a m_ij e_ij,b of one pair law, (3, 3)
-    (thesis eq. 3.46, each pair counted once)."""
-    components = _force_components(geometry, magnitude)
-    count = 1.0 if geometry.half else 0.5  # a full list sees every pair twice
-    virial = jnp.stack(
-        [jnp.stack([jnp.sum(sa * fb) for fb in components]) for sa in geometry.separation]
-    )
-    return virial * count
+    return pair_sums(geometry, {"law": magnitude}, with_virial=False)[0]

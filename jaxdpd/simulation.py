@@ -56,7 +56,7 @@ from jaxdpd.observables.spring_pairs import spring_pair_samples
 from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.pairs import soft_repulsion_term, wca_term
-from jaxdpd.pairwise import accumulate, pair_geometry, pair_virial
+from jaxdpd.pairwise import pair_geometry, pair_sums
 from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
@@ -237,10 +237,7 @@ def force_kernel(
         parts = {}
         for term in terms:
             parts.update(term(geometry, context))
-        vectors = accumulate(geometry, sum(parts.values()))
-        virial = {}
-        if with_virial:
-            virial = {name: pair_virial(geometry, m) for name, m in parts.items()}
+        vectors, virial = pair_sums(geometry, parts, with_virial)
         return vectors, virial, pair_list
 
     def interactions(positions, velocities, state):
