@@ -15,10 +15,10 @@ pairs are compacted into flat (i, j) arrays with prefix sums over popcounts, one
 scatter and a running maximum (O(N + capacity), no per-pair search over the rows).
 
 The dense test costs (stencil offsets) × (slots)² per cell, while a liquid fills
-its cells far below the capacity that its fullest cell needs (ρ = 3 DPD: 3.5 on
-average, 8 at most among 6859 cells, capacity 11).  Only the lowest m + √m slots (m
-the mean occupancy; the "dense tier", 6 of 11 there) take part in it; the few
-particles in the slots above (0.14 % of that liquid) are "crowded", and each is
+its cells far below the capacity that its fullest cell needs (ρ = 3 DPD at
+N = 24000: 3 on average, 7 at most among 8000 cells, capacity 11).  Only the lowest
+⌈m + √m⌉ slots (m the mean occupancy; the "dense tier", 5 of 11 there) take part in
+it; the few particles in the slots above (0.37 % of that liquid) are "crowded", and each is
 tested, by gathers, against every slot of its 27 surrounding cells (pairs of two
 crowded particles from the lower index only).  This quarters the dense work.
 
