@@ -4,8 +4,9 @@ Every pair law in jaxdpd (forces, thermostat forces, impulses) is central: it ac
 along the unit vector e_ij = (r_i − r_j)/r_ij with a scalar magnitude m_ij (positive
 = repulsive).  `pair_geometry` measures the pairs once; `pair_sums` turns the
 magnitudes of several laws into per-particle vectors Σ_j m_ij e_ij and each law's
-virial Σ_pairs r_ij ⊗ m_ij e_ij (`accumulate` does the first for one law).  Components are handled as separate arrays (structure of
-arrays), which XLA vectorises well on CPU.
+virial Σ_pairs r_ij ⊗ m_ij e_ij (`accumulate` does the first for one law).
+Components are handled as separate arrays (structure of arrays), which XLA
+vectorises well on CPU.
 """
 
 from dataclasses import dataclass

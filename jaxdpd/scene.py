@@ -99,9 +99,9 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
 
 import json
 import math
-from fractions import Fraction
 import tomllib
 from dataclasses import asdict, dataclass, field
+from fractions import Fraction
 
 from jaxdpd.boxes import make_box
 from jaxdpd.mpcd.cells import collision_grid
