@@ -8,7 +8,11 @@ the "pressure_tensor" series), eqs. 3.25–3.26 define
     η̄2 = −(τ_yy − τ_xx)/ε̇ = (P_xx − P_yy)/ε̇.
 
 A Newtonian fluid, τ = −η (∇u + ∇uᵀ) = −2η diag(−ε̇, 0, ε̇), has η̄1 = 4η and η̄2 = 2η:
-the Trouton ratio η̄1/η = 4 of planar elongation (thesis §4.3.3).
+the Trouton ratio η̄1/η = 4 of planar elongation (thesis §4.3.3).  A real fluid at
+small ε̇ is a second-order fluid, for which η̄1 = 4η + O(ε̇²) but
+η̄2 = 2η − 4ε̇(Ψ1/2 + Ψ2) + O(ε̇²) with Ψ1, Ψ2 its zero-rate normal-stress
+coefficients (derived in tests/test_planar_elongation_slow.py): the standard DPD
+fluid's η̄2/2 lies 5–6 % above η at ε̇ = 0.2.
 
 The polymer contributions are the same differences of the springs' part of the
 stress, "pressure_tensor_part/bond": the Kramers expression (thesis eq. 3.48), whose
