@@ -35,7 +35,7 @@ from jaxdpd.statistics import block_average
 DENSITY, REPULSION, GAMMA, DT = 3.0, 25.0, 4.5, 0.04
 
 
-def fluid_scene(n: int, precision: str) -> Scene:
+def fluid_scene(n: int, precision: str, observables=("temperature", "pressure")) -> Scene:
     return Scene.from_dict(
         {
             "seed": 1,
@@ -44,7 +44,7 @@ def fluid_scene(n: int, precision: str) -> Scene:
             "solvent": {"method": "dpd", "kT": 1.0, "gamma": GAMMA},
             "pair": {"a": REPULSION},
             "integrator": {"dt": DT, "lambda": 0.5},
-            "output": {"observables": ["temperature", "pressure"]},
+            "output": {"observables": list(observables)},
         }
     )
 
