@@ -14,7 +14,7 @@ series rises and then plateaus at the true standard error once blocks are longer
 the correlation time.  The relative uncertainty of a standard error estimated from
 ``n_b`` blocks is about ``1/sqrt(2 (n_b - 1))``.
 
-Both functions are pure ``jax.numpy``: they accept NumPy or JAX arrays, keep the input
+All functions are pure ``jax.numpy``: they accept NumPy or JAX arrays, keep the input
 floating dtype, and may be called under ``jit`` (``n_blocks`` and ``axis`` are static).
 """
 
@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["block_average", "blocking_analysis", "ratio_of_means"]
+__all__ = ["block_average", "blocking_analysis", "inverse_variance_mean", "ratio_of_means"]
 
 
 def _check_series(series, axis: int, n_blocks: int | None = None):
@@ -136,3 +136,28 @@ def ratio_of_means(numerator, denominator, n_blocks: int = 20, axis: int = 0):
     ratio = mean_a / mean_b
     _, sem = block_average((a - ratio * b) / mean_b, n_blocks)
     return ratio, jnp.abs(sem)
+
+
+def inverse_variance_mean(means, errors, axis: int = 0):
+    """Combined mean of independent estimates (e.g. replicas) and its standard error.
+
+    Each estimate is weighted by 1/error², the minimum-variance unbiased combination:
+    ``mean = Σ w_k m_k / Σ w_k`` and ``sem = 1/sqrt(Σ w_k)`` with ``w_k = 1/e_k²``.
+
+    Args:
+      means, errors: arrays of one shape; the estimates lie along ``axis``.
+      axis: the axis that is combined.
+
+    Returns:
+      ``(mean, sem)``: arrays with ``axis`` removed.
+
+    Reference: weighted averaging of independent measurements, e.g. Bevington &
+    Robinson, *Data Reduction and Error Analysis for the Physical Sciences*, 3rd
+    ed. (2003), ch. 4 (the weighted mean).
+    """
+    means, errors = jnp.asarray(means), jnp.asarray(errors)
+    if means.shape != errors.shape:
+        raise ValueError(f"means {means.shape} and errors {errors.shape} must have one shape")
+    weights = 1 / errors**2
+    total = jnp.sum(weights, axis=axis)
+    return jnp.sum(weights * means, axis=axis) / total, 1 / jnp.sqrt(total)

@@ -21,15 +21,10 @@ from jaxdpd import ensemble, flows, relaxation
 from jaxdpd.observables.elongation import elongational_material_functions
 from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
+from jaxdpd.statistics import inverse_variance_mean
 
 STEPS = 10000
 SHEAR_RATE = 0.2
-
-
-def inverse_variance_mean(means, errors):
-    """Mean of independent estimates weighted by 1/error², and its standard error."""
-    weights = 1 / np.asarray(errors) ** 2
-    return np.sum(weights * means) / np.sum(weights), 1 / np.sqrt(np.sum(weights))
 
 
 def shear_material_functions(replicas):

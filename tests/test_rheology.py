@@ -29,7 +29,7 @@ from jaxdpd.boxes import PeriodicBox
 from jaxdpd.observables import chain_series, rheology
 from jaxdpd.observables.drag import giesekus_drag
 from jaxdpd.running_averages import RunningBlockAverages
-from jaxdpd.statistics import ratio_of_means
+from jaxdpd.statistics import inverse_variance_mean, ratio_of_means
 from jaxdpd.topology import ChainBlock
 
 SIGMAS = 4.0
@@ -92,6 +92,20 @@ def test_ratio_of_means_and_its_delta_method_error():
     exact_error = np.sqrt(0.2**2 + (1.5 - 1.0) ** 2 * 0.3**2) / 2.0 / np.sqrt(SAMPLES)
     assert abs(float(ratio) - 1.0) < SIGMAS * exact_error
     assert abs(float(error) / exact_error - 1) < SIGMAS / np.sqrt(2 * 19)
+
+
+def test_inverse_variance_mean_weights_each_estimate_by_its_precision():
+    """By hand: estimates 1 ± 1 and 3 ± 2 have weights 1 and 1/4, so the mean is
+    (1 + 3/4)/(5/4) = 1.4 ± 1/√(5/4); equal errors give the plain mean and σ/√n.
+    Rows are combined separately along `axis`."""
+    mean, error = inverse_variance_mean([1.0, 3.0], [1.0, 2.0])
+    np.testing.assert_allclose([mean, error], [1.4, 1 / np.sqrt(1.25)], rtol=1e-12)
+    means, errors = np.array([[1.0, 2.0, 6.0], [0.0, 1.0, 2.0]]), np.full((2, 3), 0.3)
+    mean, error = inverse_variance_mean(means, errors, axis=1)
+    np.testing.assert_allclose(mean, [3.0, 1.0], rtol=1e-12)
+    np.testing.assert_allclose(error, 0.3 / np.sqrt(3), rtol=1e-12)
+    with pytest.raises(ValueError, match="one shape"):
+        inverse_variance_mean([1.0, 2.0], [1.0])
 
 
 def test_stress_parts_add_up_and_the_bond_part_gives_the_polymer_functions():

@@ -26,7 +26,7 @@ from jaxdpd import driver, ensemble
 from jaxdpd.forcing import cosine_profile_amplitude, cosine_wavenumber
 from jaxdpd.observables.profiles import slab_centres
 from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.statistics import block_average, inverse_variance_mean
 
 DENSITY = 3.0
 
@@ -145,9 +145,7 @@ def test_solvent_viscosity_is_independent_of_shear_rate_up_to_0_1():
     _, series = collect_series(simulation, batch, 40000, 1000, run=ensemble.run)
     eta_stress, stress_error, eta_flow, flow_error = viscosities(series, scene, rates, force)
     print("η(stress)", eta_stress, "±", stress_error, "η(flow)", eta_flow, "±", flow_error)
-    weights = 1 / stress_error**2
-    plateau = np.sum(weights * eta_stress) / np.sum(weights)
+    plateau, plateau_error = inverse_variance_mean(eta_stress, stress_error)
     assert np.all(np.abs(eta_stress - plateau) < 4 * stress_error)
-    flow_mean = np.sum(eta_flow / flow_error**2) / np.sum(1 / flow_error**2)
-    flow_mean_error = 1 / np.sqrt(np.sum(1 / flow_error**2))
-    assert abs(plateau - flow_mean) < 4 * np.hypot(1 / np.sqrt(np.sum(weights)), flow_mean_error)
+    flow_mean, flow_mean_error = inverse_variance_mean(eta_flow, flow_error)
+    assert abs(plateau - flow_mean) < 4 * np.hypot(plateau_error, flow_mean_error)
