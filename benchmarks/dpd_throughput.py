@@ -49,6 +49,16 @@ def fluid_scene(n: int, precision: str, observables=("temperature", "pressure"))
     )
 
 
+def equilibrated_fluid(
+    n: int, observables=("temperature", "pressure"), equilibration=200, chunk=100
+):
+    """(simulation, state) of the float32 fluid after `equilibration` steps, with its
+    neighbour buffers fitted to the liquid (as jaxdpd's runner does)."""
+    simulation = build(fluid_scene(n, "float32", observables))
+    state = driver.run(simulation, simulation.init_fn(), equilibration, chunk)
+    return simulation, simulation.reallocate(state, None)
+
+
 class JaxdpdFluid:
     """The fluid built, compiled and equilibrated, ready to time chunk by chunk."""
 

@@ -17,19 +17,16 @@ Writes benchmarks/results/observable_cost.json.
 import argparse
 
 from _common import print_table, timed, write_json
-from dpd_throughput import fluid_scene
+from dpd_throughput import equilibrated_fluid
 
 from jaxdpd import driver
-from jaxdpd.simulation import build
 
 VARIANTS = {"temperature": ("temperature",), "temperature+pressure": ("temperature", "pressure")}
 
 
 def equilibrated_chunk(n: int, observables, steps: int, equilibration: int):
     """(compiled chunk of `steps` steps, equilibrated state with fitted buffers)."""
-    simulation = build(fluid_scene(n, "float32", observables))
-    state = driver.run(simulation, simulation.init_fn(), equilibration, steps)
-    state = simulation.reallocate(state, None)
+    simulation, state = equilibrated_fluid(n, observables, equilibration, steps)
     return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
 
 

@@ -16,10 +16,9 @@ import argparse
 import jax
 import jax.numpy as jnp
 from _common import print_table, timed, write_json
-from dpd_throughput import fluid_scene
+from dpd_throughput import equilibrated_fluid
 
 from jaxdpd import driver
-from jaxdpd.simulation import build
 
 
 def best_seconds(function, argument, repeats: int) -> float:
@@ -29,9 +28,7 @@ def best_seconds(function, argument, repeats: int) -> float:
 
 
 def split(n: int, steps: int, repeats: int) -> dict:
-    simulation = build(fluid_scene(n, "float32"))
-    state = driver.run(simulation, simulation.init_fn(), 200, 100)
-    state = simulation.reallocate(state, None)
+    simulation, state = equilibrated_fluid(n)
     chunk = jax.jit(lambda s: driver._scan_chunk(simulation.step_fn, s, steps))
     step = best_seconds(chunk, state, repeats) / steps
     search = simulation.neighbor_search
