@@ -70,14 +70,14 @@ def test_elongational_viscosities_against_the_lees_edwards_material_functions():
     and eqs. 3.25–3.26 give η̄1 = 4η exactly at this order but
     η̄2 = 2η − 4ε̇(Ψ1/2 + Ψ2): the Trouton ratio of η̄2 has a first-order correction.
     The DPD fluid's Ψ1/2 + Ψ2 is negative (its kinetic stress, over half of η,
-    behaves like a gas's, whose P_xx exceeds P_yy in shear), so η̄2/2 lies 5–6 %
-    above η at ε̇ = 0.2: 0.893 ± 0.006 over 16 replicas against η = 0.844 ± 0.003
-    over 32, measured while this test was written; the kinetic part carries the
-    difference.
+    behaves like a gas's, whose P_xx exceeds P_yy in shear), so η̄2/2 lies 5 % above
+    η at ε̇ = 0.2: 0.894 ± 0.005 against η = 0.851 ± 0.005 over 16 replicas each
+    (benchmarks/elongation_second_order.py, which splits the stress by part: the
+    kinetic part carries the difference).
 
-    Errors: block averages, inverse-variance weighted over replicas.  Checked against
-    the spread of 16 replicas at ε̇ = 0 and 0.2: the spread over the block error was
-    0.7–1.4, within the sampling scatter of a 15-degree-of-freedom spread."""
+    Errors: block averages, inverse-variance weighted over replicas.  In that
+    benchmark the 16 replica means scatter 0.70–1.39 times their block errors,
+    within the sampling scatter of a 15-degree-of-freedom spread."""
     rates = [0.1] * 4 + [0.2] * 4
     simulation = build(elongation_scene([8.0, 4.0, 8.0], 0.0))
     batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=list(range(1, 9)))

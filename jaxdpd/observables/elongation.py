@@ -12,7 +12,7 @@ the Trouton ratio η̄1/η = 4 of planar elongation (thesis §4.3.3).  A real fl
 small ε̇ is a second-order fluid, for which η̄1 = 4η + O(ε̇²) but
 η̄2 = 2η − 4ε̇(Ψ1/2 + Ψ2) + O(ε̇²) with Ψ1, Ψ2 its zero-rate normal-stress
 coefficients (derived in tests/test_planar_elongation_slow.py): the standard DPD
-fluid's η̄2/2 lies 5–6 % above η at ε̇ = 0.2.
+fluid's η̄2/2 lies 5 % above η at ε̇ = 0.2 (benchmarks/elongation_second_order.py).
 
 The polymer contributions are the same differences of the springs' part of the
 stress, "pressure_tensor_part/bond": the Kramers expression (thesis eq. 3.48), whose
