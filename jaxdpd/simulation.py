@@ -481,12 +481,29 @@ def build(scene: Scene) -> Simulation:
         return state, samples
 
     def init_observers(state):
-        """The state with empty on-device accumulators (e.g. after equilibration)."""
+        """The state with empty on-device accumulators (e.g. after equilibration).
+
+        `state` is one replica (positions (N, 3)) or a batch (B, N, 3) from
+        jaxdpd.ensemble; a batch gets B copies of one replica's empty accumulators
+        (they depend only on the shapes), stacked on a leading axis.
+        """
         if "dynamics" not in observables:
             return state
+        batch_shape = state.positions.shape[:-2]
+        if len(batch_shape) > 1:
+            raise ValueError(
+                f"init_observers: state.positions must be (N, 3) or (B, N, 3), "
+                f"got shape {state.positions.shape}"
+            )
+        positions, image = state.positions, state.image
+        if batch_shape:
+            positions, image = positions[0], image[0]
+        observers = init_chain_correlators(
+            box, positions, image, blocks, scene.output.correlator_levels
+        )
         return state.set(
-            observers=init_chain_correlators(
-                box, state.positions, state.image, blocks, scene.output.correlator_levels
+            observers=jax.tree.map(
+                lambda leaf: jnp.broadcast_to(leaf, batch_shape + leaf.shape), observers
             )
         )
 

@@ -19,7 +19,7 @@ Layout written:
     /connectivity/bonds         (B, 2) bonded pairs of the polymer chains
     /observables/<name>/{step,time,value}        per-step series of the production
     /averages/rdf/{r, g}        g(r) averaged over the run (time-independent)
-    /averages/<species>/<g1|g2|g3|end_to_end_acf>/{lag_time,value,per_element}
+    /averages/<species>/<g1|g2|g3|end_to_end_acf|positional_acf>/{lag_time,value,per_element}
                                 on-device time correlations over the production
     /checkpoint                 the whole state (jaxdpd.io.checkpoint)
 

@@ -12,7 +12,8 @@ For each chain block (species) the step records, averaged over its chains:
                                   latter is the thesis's ⟨Q²⟩/Q0² (fig. 4-10)
     <species>/end_to_end_sq       ⟨R_e²⟩, R_e = r_M − r_1         (chains of M > 2)
     <species>/end_to_end_conformation   (3, 3) ⟨R_e R_e⟩            (M > 2)
-    <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (M > 2)
+    <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (every M ≥ 2; a
+                                  dumbbell's is exactly ⟨Q²⟩/4)
 and, with "pressure" and a [pair] too (`spring_pair_pressure`):
     <species>/spring_pair_pressure  (3, 3) the soft repulsion between the two beads
                                   of every spring as a pressure tensor: the
@@ -67,7 +68,7 @@ def conformation_samples(box, positions, blocks, parameters=None) -> dict:
             samples[f"{name}/end_to_end_conformation"] = conformation_tensor(
                 end_to_end_vector(chains)
             )
-            samples[f"{name}/gyration_radius_sq"] = jnp.mean(gyration_radius_squared(chains))
+        samples[f"{name}/gyration_radius_sq"] = jnp.mean(gyration_radius_squared(chains))
     return samples
 
 
@@ -102,7 +103,8 @@ def ideal_references(blocks, kT: float) -> dict:
     FENE springs: ⟨Q²⟩ = 3 Q0²/(b + 5), b = H Q0²/k_BT (thesis eq. 4.8, exact for one
     spring; for dumbbells also ⟨Q²⟩/Q0² = 3/(b + 5)); Hookean chains of M beads,
     l² = 3 k_BT/H: ⟨Q²⟩ = l², ⟨R_e²⟩ = (M − 1) l²,
-    ⟨R_g²⟩ = l² (M² − 1)/(6M) (Doi & Edwards 1986, §2.1).  Other laws have none here.
+    ⟨R_g²⟩ = l² (M² − 1)/(6M) (Doi & Edwards 1986, §2.1; l²/4 for a dumbbell).  Other
+    laws have none here.
 
     Returns:
         series name → reference value, for the series that have one.
@@ -120,7 +122,7 @@ def ideal_references(blocks, kT: float) -> dict:
             l_sq = 3 * kT / parameters["spring_constant"]
             m = block.beads
             references[f"{block.species}/bond_length_sq"] = l_sq
+            references[f"{block.species}/gyration_radius_sq"] = l_sq * (m * m - 1) / (6 * m)
             if m > 2:
                 references[f"{block.species}/end_to_end_sq"] = (m - 1) * l_sq
-                references[f"{block.species}/gyration_radius_sq"] = l_sq * (m * m - 1) / (6 * m)
     return references
