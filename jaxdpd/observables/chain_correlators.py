@@ -81,17 +81,28 @@ def chain_correlations(correlators: dict, sample_interval: float) -> dict:
     """Lag times and correlations per chain (or bead), summed over x, y, z (host side).
 
     Args:
-        correlators: from the state's `observers`.
+        correlators: from the state's `observers`: one replica's, or a batch's from
+            jaxdpd.ensemble (every leaf with a leading replica axis B).
         sample_interval: simulated time between samples (correlator_every · Δt).
     Returns:
         dict "<species>/<series>" → (lag times (K,), values (K, C) for g3 and
-        end_to_end_acf, (K, C, M) for g1, g2 and positional_acf) NumPy arrays; NaN at lags no sample
-        pair has reached yet.  Average over the chain (and bead) axes for the
-        ensemble mean; keep them for error bars (e.g. dynamics.diffusion_coefficient).
+        end_to_end_acf, (K, C, M) for g1, g2 and positional_acf) NumPy arrays; NaN
+        at lags no sample pair has reached yet.  A batch's replicas are independent
+        chains of one species, so they are merged into the chain axis, replica by
+        replica (C = B · chains per replica).  Average over the chain (and bead) axes
+        for the ensemble mean; keep them for error bars (e.g.
+        dynamics.diffusion_coefficient, positional_autocorrelation).
     """
     results = {}
     for key, state in correlators.items():
-        lags, values = correlator.result(state)
+        if state.counts.ndim == 2:
+            lags, values = correlator.result(state)
+        else:
+            levels, points = state.buffer.shape[1:3]  # (B, L, p, ...)
+            lags = correlator.lags(levels, points, state.averaging)
+            batched = jax.vmap(lambda s: correlator.result(s)[1])(state)  # (B, K, C, ...)
+            values = jnp.moveaxis(batched, 0, 1)
+            values = values.reshape(values.shape[:1] + (-1,) + values.shape[3:])
         results[key] = (lags * sample_interval, np.asarray(jax.device_get(values)).sum(axis=-1))
     return results
 
