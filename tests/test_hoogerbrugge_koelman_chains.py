@@ -124,7 +124,8 @@ def test_dumbbells_near_equipartition_at_the_measured_temperature():
     The HK model has no exact canonical reference: its collision rule violates
     fluctuation–dissipation (noise and friction both ∝ W instead of W and W²;
     Español & Warren, Europhys. Lett. 30, 191 (1995)), so neighbouring velocities
-    are correlated, and the bonded beads also collide (the Π0 repulsion).  A 20 000
+    are correlated, and the bonded beads also interact through the fluid (their own
+    Π0 repulsion and the fluid's potential of mean force).  A 20 000
     step run of this scene (benchmarks/hk_chains.py reports the same quantity)
     measured H⟨Q²⟩/(3 k_BT) = 0.932 ± 0.006, 7 % below equipartition.  The test
     therefore allows 10 % beyond 3 block-average standard errors: it catches the
