@@ -142,12 +142,13 @@ def pair_terms(scene: Scene, dtype) -> list:
     if solvent.method == "hoogerbrugge_koelman":
         terms.append(
             hoogerbrugge_koelman_term(
-                scene.particles.density,
+                solvent.weight_density or scene.particles.density,
                 scene.cutoff,
                 solvent.pi0,
                 solvent.omega,
                 solvent.delta_pi,
                 1.0,
+                scene.integrator.dt,
                 dtype,
             )
         )
@@ -257,7 +258,12 @@ def force_kernel(
         for block in blocks:
             law = block.law.with_parameters(state.parameters["bond"][block.species])
             bonded = chain_bond_forces(
-                bound_box, block.take(positions), block.take(state.image), law, with_virial
+                bound_box,
+                block.take(positions),
+                block.take(state.image),
+                law,
+                with_virial,
+                half_box_limit=spring_search is not None,
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
             if with_virial:
@@ -366,7 +372,9 @@ def build(scene: Scene) -> Simulation:
 
     fluid = None
     if scene.solvent.method == "hoogerbrugge_koelman":
-        advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+        advance = collide_and_stream(
+            box, scene.integrator.dt, interactions, scene.solvent.kT, dtype
+        )
     elif scene.solvent.method == "mpcd":
         advance = mpcd_step(scene, box, interactions, masses, (first, stop), with_virial, dtype)
     elif bath_cutoff is not None:
@@ -440,11 +448,19 @@ def build(scene: Scene) -> Simulation:
         bound_box = box.bind(state.box_state)
         if "conformation" in observables:
             samples.update(
-                conformation_samples(bound_box, state.positions, blocks, state.parameters)
+                conformation_samples(
+                    bound_box, state.positions, blocks, state.parameters, state.image
+                )
             )
             for block, strength in spring_pair_strengths:
                 samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
-                    bound_box, state.positions, block, strength, scene.cutoff, scene.volume
+                    bound_box,
+                    state.positions,
+                    block,
+                    strength,
+                    scene.cutoff,
+                    scene.volume,
+                    state.image,
                 )
         if "drag" in observables:
             samples.update(relative_velocity_samples(state.velocities, tagged_range))

@@ -37,7 +37,7 @@ from jaxdpd.pairs import soft_repulsion
 from jaxdpd.topology import chain_coordinates
 
 
-def conformation_samples(box, positions, blocks, parameters=None) -> dict:
+def conformation_samples(box, positions, blocks, parameters=None, image=None) -> dict:
     """The per-step conformation samples of every block (traced, inside the scan).
 
     Args:
@@ -46,13 +46,15 @@ def conformation_samples(box, positions, blocks, parameters=None) -> dict:
         blocks: the scene's ChainBlocks.
         parameters: the state's traced parameters (jaxdpd.parameters), whose bond
             max_extension gives the contour length; None: the scene's values.
+        image: (N, 3) image counters, or None (jaxdpd.topology.chain_coordinates:
+            with them, springs longer than half the box are measured right).
     Returns:
         name → scalar or (3, 3) tensor, names as in the module docstring.
     """
     samples = {}
     for block in blocks:
         name = block.species
-        chains = chain_coordinates(box, positions, block)
+        chains = chain_coordinates(box, positions, block, image)
         springs = bond_vectors(chains)
         samples[f"{name}/bond_length_sq"] = jnp.mean(jnp.sum(springs**2, axis=-1))
         samples[f"{name}/bond_conformation"] = conformation_tensor(springs, axis=(0, 1))
@@ -72,7 +74,7 @@ def conformation_samples(box, positions, blocks, parameters=None) -> dict:
     return samples
 
 
-def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume: float):
+def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume: float, image=None):
     """The conservative pair force across each spring of a block, as a pressure.
 
     (1/V) Σ_springs Q ⊗ a (1 − Q/r_c) Q/|Q| for |Q| < r_c (thesis eq. 3.46 restricted
@@ -87,10 +89,11 @@ def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume:
         strength: a of the block's species with itself (energy/length).
         cutoff: r_c.
         volume: box volume.
+        image: (N, 3) image counters, or None (as in `conformation_samples`).
     Returns:
         (3, 3) tensor (units of pressure).
     """
-    springs = bond_vectors(chain_coordinates(box, positions, block)).reshape(-1, 3)
+    springs = bond_vectors(chain_coordinates(box, positions, block, image)).reshape(-1, 3)
     length = jnp.sqrt(jnp.sum(springs * springs, axis=-1))
     weight = jnp.clip(1 - length / cutoff, 0, None)
     along = soft_repulsion(weight, strength) / jnp.maximum(length, jnp.finfo(length.dtype).tiny)
