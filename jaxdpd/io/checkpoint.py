@@ -50,6 +50,7 @@ a restart truncates each to that length and refuses a file in which one is
 missing or shorter.
 """
 
+import contextlib
 import json
 import os
 import zlib
@@ -162,11 +163,14 @@ def _replace_atomically(path: Path, data: bytes) -> None:
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
-    directory = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(directory)
-    finally:
-        os.close(directory)
+    # The rename is done: a file system that cannot fsync a directory (some network
+    # file systems, Windows) only loses the guarantee against a power cut.
+    with contextlib.suppress(OSError):
+        directory = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(directory)
+        finally:
+            os.close(directory)
 
 
 def _header(handle) -> dict:
