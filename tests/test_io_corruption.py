@@ -13,7 +13,7 @@ import pytest
 from io_runs import SCENE_TOML, copy_run, reference_run
 
 from jaxdpd.cli import main
-from jaxdpd.io import RunFileError, read_scene, read_state, write_tree
+from jaxdpd.io import RunFileError, load, read_checkpoint, read_scene, read_state, write_tree
 from jaxdpd.io.checkpoint import checkpoint_path
 
 
@@ -169,15 +169,24 @@ def test_a_damaged_file_is_refused_by_restart_with_one_line_and_exit_2(case, tmp
         assert path.read_bytes() == damaged
 
 
-@pytest.mark.parametrize("case", ["truncated", "scene invalid", "leaf damaged"])
+READERS = {
+    "truncated": read_scene,
+    "scene invalid": read_scene,
+    "scene digit changed": read_scene,
+    "leaf damaged": read_state,
+    "checkpoint header edited": read_checkpoint,
+    "another run's checkpoint": load,
+}
+
+
+@pytest.mark.parametrize("case", list(READERS))
 def test_readers_raise_run_file_errors_for_damaged_files(case, tmp_path):
     damage, message = DAMAGE[case]
     path = tmp_path / "run.h5"
     copy_run(reference_run().path, path)
     damage(path)
-    reader = read_state if case == "leaf damaged" else read_scene
     with pytest.raises(RunFileError, match=message):
-        reader(path)
+        READERS[case](path)
 
 
 SCENE_FILES = {
