@@ -235,6 +235,18 @@ def test_resuming_a_finished_run_appends_nothing(tmp_path):
     assert summary.averages == reference.summary.averages
 
 
+def test_restart_into_a_copy_takes_the_checkpoint_along_and_keeps_the_original(tmp_path):
+    """`jaxdpd run --restart FILE -o COPY` continues in COPY (with its own checkpoint
+    file); FILE and its checkpoint are left as they were."""
+    reference = polymer_reference_run()
+    original, copy = tmp_path / "run.h5", tmp_path / "copy.h5"
+    copy_run(reference.path, original)
+    before = [p.read_bytes() for p in (original, checkpoint_path(original))]
+    assert main(["run", "--restart", str(original), "-o", str(copy), "-q"]) == 0
+    assert_same_run(copy, reference)
+    assert [p.read_bytes() for p in (original, checkpoint_path(original))] == before
+
+
 @pytest.mark.slow
 def test_a_finished_run_extended_with_more_steps_equals_a_longer_run(tmp_path):
     """`resume(path, steps=...)` (CLI: --restart FILE --steps N) continues a finished
