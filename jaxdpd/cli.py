@@ -159,8 +159,8 @@ def main(argv=None) -> int:
     demo.add_argument("-o", "--output", help="H5MD output file")
     demo.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    previous = signal.getsignal(signal.SIGINT)
-    if previous is signal.SIG_IGN:
+    ignored = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    if ignored:
         # Started in the background: kill -INT should still stop the run (at start-up
         # too), as Ctrl-C does in the foreground.  Put back on return.
         signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -176,7 +176,8 @@ def main(argv=None) -> int:
         )
         return 128 + signal.SIGINT
     finally:
-        signal.signal(signal.SIGINT, previous)
+        if ignored:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _run(args) -> int:

@@ -1,5 +1,7 @@
 """H5MD output layout, the scene stored in it, and the command line."""
 
+import signal
+
 import h5py
 import numpy as np
 from io_runs import (
@@ -150,13 +152,23 @@ def test_demo_scene_is_valid_and_small_enough_for_two_minutes():
 
 def test_ctrl_c_before_the_first_chunk_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
     """SIGINT while the scene is built and compiled (before SignalGuard is active)
-    raises KeyboardInterrupt: one line on stderr and status 130."""
+    raises KeyboardInterrupt: one line on stderr and status 130.  Started with SIGINT
+    ignored (a background job), jaxdpd listens to it all the same, and puts the
+    ignored disposition back on return."""
+    during = []
 
     def interrupted(*args, **kwargs):
+        during.append(signal.getsignal(signal.SIGINT))
         raise KeyboardInterrupt
 
     monkeypatch.setattr(cli, "prepare", interrupted)
-    assert main(["demo", "-o", str(tmp_path / "demo.h5")]) == 130
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        assert main(["demo", "-o", str(tmp_path / "demo.h5")]) == 130
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert during == [signal.default_int_handler]
     error = capsys.readouterr().err.strip()
     assert error == (
         "jaxdpd: interrupted by SIGINT before the first chunk or after the last "
