@@ -21,15 +21,19 @@ before it gets its name depends on none of that:
 A kill at any moment leaves the previous checkpoint or the new one, whole; a full
 disk fails step 3 with OSError before the rename and leaves the previous one.
 
-Measured (benchmarks/checkpoint_survival.py: a writer checkpointing 3000 particles
-after every chunk, killed with SIGKILL at a random instant, 30 kills per design):
-the checkpoint overwritten in place was lost 9 times, two slots inside the output
-file and this design never; once, with two slots, the output file itself was left
-with an unreadable last block (a kill inside HDF5's flush of the series, which no
-checkpoint design prevents; a restart refuses such a file with a named error,
-unless the damage lies past the checkpoint and is cut away).  One write
-took 3.6 ms in place, 6.7 ms with two slots and 9.1 ms here (three fsyncs), about
-0.6 % of a 100-step chunk of 3000 particles.
+Measured (benchmarks/checkpoint_survival.py: a writer checkpointing three (3000, 3)
+arrays after every chunk, killed with SIGKILL at a random instant, 100 kills per
+design): the checkpoint overwritten in place was lost 50 times, two slots inside the
+output file and this design never.  (An earlier run of 30 kills each: 9, 0 and 0, and
+once, with two slots, the output file itself was left with an unreadable last block:
+a kill inside HDF5's flush of the series, which no checkpoint design prevents; a
+restart refuses such a file with a named error unless the damage lies past the
+checkpoint and is cut away.)  Two slots survive kills as well, but not a full disk:
+after a failed write HDF5 can neither flush nor close the file (jaxdpd.io.h5md), so
+the slot being written and the pointer to it cannot be completed, and a slot whose
+shapes change (a reallocated neighbour list) rewrites the file's metadata.  One write
+took 3.1 ms in place, 4.2 ms with two slots and 6.8 ms here (three fsyncs); the
+demo's full state, 10.6 MiB, about 75 ms (benchmarks/checkpoint_cost.py).
 
 Layout of a checkpoint file:
 
