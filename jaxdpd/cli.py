@@ -4,11 +4,15 @@
     jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
     jaxdpd demo [-o FILE] [-q]
 
-Exit status: 0 done; 2 invalid input (scene, file or arguments; one line on stderr
-names the problem); 3 the simulation became invalid (the last good state is
-checkpointed); 128 + signal number (130 for SIGINT, 143 for SIGTERM) when a signal
-stopped the run, after the chunk in flight, with a checkpoint and the command that
-resumes it.
+Exit status: 0 done; 2 invalid input (scene, file or arguments, including a file to
+restart that is damaged or incomplete; one line on stderr names the problem); 3 the
+simulation became invalid (the last good state is checkpointed); 4 the output could
+not be written (disk full, I/O error; the last checkpoint is intact and the command
+that resumes it is printed); 128 + signal number (130 for SIGINT, 143 for SIGTERM)
+when a signal stopped the run, after the chunk in flight, with a checkpoint and the
+command that resumes it.  SIGINT and SIGTERM are handled even when the shell started
+jaxdpd with them ignored (a background job); Ctrl-C before the run starts or after
+it ended exits 130 without a traceback.
 """
 
 import argparse
@@ -21,15 +25,15 @@ from importlib import resources
 
 from jaxdpd.driver import RunInterrupted
 from jaxdpd.errors import SimulationError
-from jaxdpd.io.checkpoint import read_checkpoint_info
-from jaxdpd.io.errors import RunFileError
-from jaxdpd.io.reader import open_run_file
+from jaxdpd.io.checkpoint import checkpoint_path, read_checkpoint_info
+from jaxdpd.io.errors import OutputError, RunFileError
 from jaxdpd.runner import prepare, prepare_resume
 from jaxdpd.scene import Scene
 
 DEMO_SCENE = "demo.toml"
 INVALID_INPUT = 2
 SIMULATION_FAILED = 3
+OUTPUT_FAILED = 4
 FINISHED = "end of run"
 
 
@@ -51,8 +55,7 @@ def _describe(scene: Scene) -> str:
 def _refuse_to_clobber(path) -> None:
     """Refuse to overwrite a file that holds a run which can still be resumed."""
     try:
-        with open_run_file(path) as handle:
-            info = read_checkpoint_info(handle)
+        info = read_checkpoint_info(path)
     except RunFileError:
         return  # missing, not ours, or nothing to resume: overwriting loses nothing
     if info.reason != FINISHED:
@@ -73,7 +76,9 @@ def _prepare(args):
             raise ValueError("give a scene file or --restart FILE, not both")
         path = args.restart
         if args.output is not None and args.output != path:
-            shutil.copyfile(path, args.output)  # continue in the copy, keep the original
+            # Continue in the copy, keep the original.
+            shutil.copyfile(path, args.output)
+            shutil.copyfile(checkpoint_path(path), checkpoint_path(args.output))
             path = args.output
         return prepare_resume(path, args.steps, **options), path
     if args.scene is None:
@@ -87,21 +92,39 @@ def _prepare(args):
     return prepare(scene, args.output, **options), path
 
 
+def _resume_hint(path) -> str:
+    return f"resume with:\n  jaxdpd run --restart {shlex.quote(str(path))}"
+
+
+def _last_checkpoint(path) -> str:
+    """Where a run that stopped on a write failure can be resumed from."""
+    try:
+        info = read_checkpoint_info(path)
+    except RunFileError:
+        return "no checkpoint was written before the failure: the run must start again"
+    return (
+        f"the checkpoint of step {info.step} ({checkpoint_path(path)}) is intact; remove "
+        f"the cause (free space), then {_resume_hint(path)}"
+    )
+
+
 def _execute(run, path) -> int:
     print(f"jaxdpd: {_describe(run.scene)}", file=sys.stderr)
     start = time.perf_counter()
     try:
         summary = run.execute()
     except SimulationError as error:
-        where = f"; last good state checkpointed in {path}" if path else ""
+        where = f"; last good state checkpointed in {checkpoint_path(path)}" if path else ""
         print(f"jaxdpd: run stopped: {error}{where}", file=sys.stderr)
         return SIMULATION_FAILED
+    except OutputError as error:
+        print(f"jaxdpd: output failed: {error}\njaxdpd: {_last_checkpoint(path)}", file=sys.stderr)
+        return OUTPUT_FAILED
     except RunInterrupted as interrupt:
         print(f"jaxdpd: {interrupt}", file=sys.stderr)
         if path:
             print(
-                f"jaxdpd: checkpoint written to {path}; resume with:\n"
-                f"  jaxdpd run --restart {shlex.quote(str(path))}",
+                f"jaxdpd: checkpoint written to {checkpoint_path(path)}; {_resume_hint(path)}",
                 file=sys.stderr,
             )
         else:
@@ -136,11 +159,37 @@ def main(argv=None) -> int:
     demo.add_argument("-o", "--output", help="H5MD output file")
     demo.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
+    ignored = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    if ignored:
+        # Started in the background: kill -INT should still stop the run (at start-up
+        # too), as Ctrl-C does in the foreground.  Put back on return.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return _run(args)
+    except KeyboardInterrupt:
+        # Before the run (building, compiling, opening files) or after it: nothing
+        # to checkpoint.  During the run, SignalGuard turns SIGINT into a stop.
+        print(
+            "\njaxdpd: interrupted by SIGINT before the first chunk or after the last "
+            "(no checkpoint written for it)",
+            file=sys.stderr,
+        )
+        return 128 + signal.SIGINT
+    finally:
+        if ignored:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run(args) -> int:
+    """Prepare and execute the command; the exit status."""
     try:
         prepared, path = _prepare(args)
     except (ValueError, TypeError, OSError) as error:
         print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
         return INVALID_INPUT
+    except OutputError as error:
+        print(f"jaxdpd: output failed: {error}", file=sys.stderr)
+        return OUTPUT_FAILED
     return _execute(prepared, path)
 
 

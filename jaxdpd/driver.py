@@ -59,9 +59,10 @@ class SignalGuard:
     prints a notice on stderr; it also sets both signals to their default action, so
     a second one terminates the process at once, even in the middle of a chunk
     (without a checkpoint: the file keeps the last one written).  Leaving the guard
-    restores the previous handlers.  Signals that were ignored (SIG_IGN) stay
-    ignored, and outside the main thread (where Python cannot install handlers) the
-    guard does nothing.
+    restores the previous handlers.  Signals that were ignored are handled too: a job
+    started in the background by a non-interactive shell inherits an ignored SIGINT,
+    and `kill -INT` should still stop it with a checkpoint.  Outside the main thread
+    (where Python cannot install handlers) the guard does nothing.
 
     Example:
         with SignalGuard() as guard:
@@ -92,10 +93,8 @@ class SignalGuard:
     def __enter__(self) -> "SignalGuard":
         if threading.current_thread() is threading.main_thread():
             for signum in self.SIGNALS:
-                previous = signal.getsignal(signum)
-                if previous is not signal.SIG_IGN:
-                    self._previous[signum] = previous
-                    signal.signal(signum, self._handle)
+                self._previous[signum] = signal.getsignal(signum)
+                signal.signal(signum, self._handle)
         return self
 
     def __exit__(self, *exc) -> None:

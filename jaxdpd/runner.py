@@ -9,13 +9,16 @@ are appended to the H5MD file (if there is one) and added to running block sums
 every output.trajectory_every production steps.  Nothing grows in memory with the
 run's length.
 
-Checkpoints (jaxdpd.io.checkpoint) are written at the end, every
-output.checkpoint_every steps of either phase, when a chunk fails (the last good
-state), and when SIGINT or SIGTERM arrives (after the chunk in flight finishes;
-`RunInterrupted` is then raised).  `resume(path)` continues from a file's
-checkpoint: it drops anything written after it, replays the stored series into the
-block sums, and runs on, so the final state is bit-identical to that of a run that
-was never interrupted.
+Checkpoints (jaxdpd.io.checkpoint, a file beside the output replaced atomically)
+are written at the end, every output.checkpoint_every steps of either phase, at the
+first chunk end after output.checkpoint_seconds of wall time since the last one
+(default 300 s, so a long run killed by kill -9 loses minutes, not everything), when
+a chunk fails (the last good state), and when SIGINT or SIGTERM arrives (after the
+chunk in flight finishes; `RunInterrupted` is then raised).  `resume(path)`
+continues from a file's checkpoint: it checks the file against it, drops anything
+written after it, replays the stored series into the block sums, and runs on, so the
+final state is bit-identical to that of a run that was never interrupted.  A failed
+write (full disk, I/O error) raises OutputError and leaves the last checkpoint.
 """
 
 import contextlib
@@ -30,6 +33,7 @@ from jaxdpd import driver
 from jaxdpd.io.checkpoint import (
     EQUILIBRATION,
     PRODUCTION,
+    checkpoint_path,
     read_checkpoint_info,
     read_checkpoint_state,
 )
@@ -41,6 +45,7 @@ from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.observables.rheology import summary_rows
 from jaxdpd.running_averages import RunningBlockAverages
+from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
 
 # Components of the pressure tensor reported in the summary table.
@@ -186,37 +191,55 @@ class Run:
             return {}
         return {"rdf_counts": self.rdf.counts, "rdf_samples": np.asarray(self.rdf.samples)}
 
-    def restore(self, handle, step: int, extras: dict) -> None:
-        """Bring the accumulators to checkpoint step `step`: g(r) from the checkpoint's
-        extras, block sums replayed from the stored series in production chunks."""
-        if self.rdf is not None and "rdf_counts" in extras:
-            self.rdf.counts = np.array(extras["rdf_counts"], np.int64)
-            self.rdf.samples = int(extras["rdf_samples"])
-        done = step - self.scene.run.equilibration
+    def restore_accumulators(self, info) -> None:
+        """g(r) from the checkpoint `info` (a CheckpointInfo), after checking that it
+        holds exactly the accumulators this scene keeps."""
+        expected = set(self.extras())
+        if set(info.extras) != expected:
+            raise RunFileError(
+                f"{info.path}: holds the accumulators {sorted(info.extras)}, this scene "
+                f"needs {sorted(expected)} (damaged or edited; g(r) cannot be re-derived)"
+            )
+        if self.rdf is not None:
+            self.rdf.counts = np.array(info.extras["rdf_counts"], np.int64)
+            self.rdf.samples = int(info.extras["rdf_samples"])
+
+    def replay(self, info) -> None:
+        """Bring the block sums to the checkpoint `info`: the stored series of the
+        production so far, read from the reopened file in production chunks (a
+        damaged block raises OSError)."""
+        start = self.scene.run.equilibration
+        done = info.step - start
         if self.phase != PRODUCTION or done <= 0:
             return
         chunk = self.scene.run.chunk
-        for name in time_series_names(handle):
+        handle = self.writer.file
+        for name in time_series_names(handle):  # in the order written: the table's
             group = handle[f"observables/{name}"]
             steps = group["step"]
-            first, last = self.scene.run.equilibration + 1, step
-            lengths = {group[part].shape[0] for part in ("step", "time", "value")}
-            if lengths != {done} or steps[0] != first or steps[-1] != last:
+            samples = info.series.get(group.name.lstrip("/"), 0)
+            if samples != done or steps[0] != start + 1 or steps[samples - 1] != info.step:
                 raise RunFileError(
-                    f"{handle.filename}: observables/{name} does not hold steps "
-                    f"{first}…{last} (the checkpoint's production so far)"
+                    f"{self.writer.path}: observables/{name} does not hold steps "
+                    f"{start + 1}…{info.step} (the checkpoint's production so far)"
                 )
-            for start in range(0, done, chunk):
-                self.averages.add(start, {name: group["value"][start : start + chunk]})
+            for first in range(0, done, chunk):
+                self.averages.add(first, {name: group["value"][first : first + chunk]})
 
     # -- the loop --------------------------------------------------------------------
     def checkpoint(self, state, reason: str) -> None:
         if self.writer is not None:
             self.writer.write_checkpoint(state, self.phase, reason, self.extras())
+            self.last_checkpoint = time.monotonic()
 
     def _periodic_checkpoint(self, state, phase_start: int) -> None:
-        every = self.scene.output.checkpoint_every
-        if every and (int(state.step) - phase_start) % every == 0:
+        """A checkpoint every output.checkpoint_every steps, and at the first chunk end
+        after output.checkpoint_seconds of wall time since the last one."""
+        output = self.scene.output
+        every, seconds = output.checkpoint_every, output.checkpoint_seconds
+        by_steps = every and (int(state.step) - phase_start) % every == 0
+        by_time = seconds and time.monotonic() - self.last_checkpoint >= seconds
+        if by_steps or by_time:
             self.checkpoint(state, "periodic")
 
     def _on_equilibration_chunk(self, result: driver.ChunkResult) -> None:
@@ -269,11 +292,14 @@ class Run:
             SimulationError: a chunk failed (the last good state is checkpointed).
             driver.RunInterrupted: SIGINT/SIGTERM arrived (checkpointed after the
                 chunk in flight).
+            OutputError: writing the file or a checkpoint failed (the last
+                checkpoint written before is intact).
         """
         scene, simulation, state = self.scene, self.simulation, self.state
         equilibration = scene.run.equilibration
         end = equilibration + scene.run.steps
         self.start_step = int(state.step)
+        self.last_checkpoint = time.monotonic()  # wall clock of the latest checkpoint
         self.bar = _Progress(end - self.start_step, self.stream, self.progress)
         guard = driver.SignalGuard() if self.handle_signals else contextlib.nullcontext()
         self.should_stop = guard if self.handle_signals else None
@@ -368,8 +394,10 @@ def prepare(scene, output_path=None, **options) -> Run:
 def prepare_resume(path, steps: int | None = None, **options) -> Run:
     """Load the run stored in `path` at its checkpoint, to continue in the same file.
 
-    Anything written after the checkpoint (by a run killed before its next one) is
-    dropped, and the stored series are replayed into the block sums.
+    The file is checked against the checkpoint (scene, run identifier, the length
+    and last block of every series, the accumulators); anything written after the
+    checkpoint (by a run killed before its next one) is dropped, and the stored series
+    are replayed into the block sums.
 
     Args:
         path: an H5MD file written by jaxdpd.
@@ -377,26 +405,37 @@ def prepare_resume(path, steps: int | None = None, **options) -> Run:
             production steps the checkpoint has done.  None keeps the stored scene's.
         **options: as for `prepare`.
     Raises:
-        RunFileError: the file cannot be read back or holds no usable checkpoint.
+        RunFileError: the file cannot be read back, holds no usable checkpoint, or
+            does not hold what its checkpoint counts (damaged, edited, incomplete).
         ValueError: `steps` is shorter than the production already done.
     """
     with open_run_file(path) as handle:
         scene = scene_of(handle)
-        info = read_checkpoint_info(handle)
-        if steps is not None:
-            done = info.step - scene.run.equilibration if info.phase == PRODUCTION else 0
-            if steps < done:
-                raise ValueError(
-                    f"run.steps = {steps}: the checkpoint in {path} has already done {done} "
-                    f"production steps; give at least {done}"
-                )
-            scene = scene.replace(run={"steps": steps})
-        simulation = build(scene)
-        state = read_checkpoint_state(handle, simulation.init_fn())
-    run = Run(simulation, state, None, info.phase, **options)
-    run.writer = H5MDWriter.reopen(path, scene, info.step)
+    info = read_checkpoint_info(path)
     try:
-        run.restore(run.writer.file, info.step, info.extras)
+        checkpointed = Scene.from_dict(info.scene).replace(run={"steps": scene.run.steps})
+    except (TypeError, ValueError) as error:
+        raise RunFileError(f"{info.path}: the scene in its header is invalid ({error})") from None
+    if checkpointed != scene:
+        raise RunFileError(
+            f"{path}: its scene differs from the one its checkpoint "
+            f"({checkpoint_path(path)}) was written with, beyond run.steps (edited?)"
+        )
+    if steps is not None:
+        done = info.step - scene.run.equilibration if info.phase == PRODUCTION else 0
+        if steps < done:
+            raise ValueError(
+                f"run.steps = {steps}: the checkpoint in {path} has already done {done} "
+                f"production steps; give at least {done}"
+            )
+        scene = scene.replace(run={"steps": steps})
+    simulation = build(scene)
+    state = read_checkpoint_state(path, simulation.init_fn())
+    run = Run(simulation, state, None, info.phase, **options)
+    run.restore_accumulators(info)
+    run.writer = H5MDWriter.reopen(path, scene, info)
+    try:
+        run.replay(info)
     except OSError as error:  # a stored series fails its Fletcher-32 checksum
         run.writer.close()
         raise RunFileError(f"{path}: a stored series is damaged ({error})") from None

@@ -99,9 +99,11 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
                 samples of the "dynamics" correlators), correlator_levels ≥ 1;
                 current_modes ≥ 1 (transverse currents at k = 2πn/L, n = 1 ..
-                current_modes; cubic boxes); checkpoint_every (steps, 0 = only at
-                the end, on errors and on SIGINT/SIGTERM); trajectory_every and
-                checkpoint_every are multiples of run.chunk
+                current_modes; cubic boxes); checkpoint_every (steps, 0 = none
+                by step count); checkpoint_seconds ≥ 0 (wall-clock seconds between
+                checkpoints, default 300, 0 = none by time); checkpoints are also
+                written at the end, on errors and on SIGINT/SIGTERM; trajectory_every
+                and checkpoint_every are multiples of run.chunk
 """
 
 import json
@@ -372,6 +374,7 @@ class Output:
     rdf_max: float = 3.0
     trajectory_every: int = 0
     checkpoint_every: int = 0
+    checkpoint_seconds: float = 300.0
     correlator_every: int = 10
     correlator_levels: int = 12
     profile_bins: int = 20
@@ -404,7 +407,15 @@ class Scene:
     def from_toml(cls, path) -> "Scene":
         """Read and validate a scene file."""
         with open(path, "rb") as handle:
-            return cls.from_toml_string(handle.read().decode("utf-8"), source=str(path))
+            raw = handle.read()
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as error:
+            raise ValueError(
+                f"{path}: not UTF-8 text (byte {error.start} is {raw[error.start]:#04x}); "
+                "TOML scene files are UTF-8"
+            ) from None
+        return cls.from_toml_string(text, source=str(path))
 
     @classmethod
     def from_toml_string(cls, text: str, source: str = "scene") -> "Scene":
@@ -1355,6 +1366,7 @@ def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) 
             "rdf_max",
             "trajectory_every",
             "checkpoint_every",
+            "checkpoint_seconds",
             "correlator_every",
             "correlator_levels",
             "profile_bins",
@@ -1396,6 +1408,7 @@ def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) 
         rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
         rdf_max=rdf_max,
         **every,
+        checkpoint_seconds=read_number(section, "checkpoint_seconds", "output", 300.0, minimum=0),
         correlator_every=read_number(
             section, "correlator_every", "output", 10, minimum=1, integer=True
         ),

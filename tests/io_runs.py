@@ -20,11 +20,15 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from jaxdpd.io import read_checkpoint, read_observables, read_state, read_trajectory
+from jaxdpd.io.checkpoint import checkpoint_path
+from jaxdpd.io.reader import open_run_file
 from jaxdpd.runner import simulate
 from jaxdpd.scene import Scene
 
 # 375 particles (a 5³ box at ρ = 3), float64, in Lees–Edwards shear (a box state in
-# SimState); 120 chunks of 20 steps.
+# SimState); 120 chunks of 20 steps.  Checkpoints by step count only (no wall-clock
+# ones, checkpoint_seconds = 0), so that tests know where they are.
 SCENE_TOML = """
 seed = 11
 precision = "float64"
@@ -48,6 +52,7 @@ chunk = 20
 observables = ["temperature", "pressure"]
 trajectory_every = 20
 checkpoint_every = 100
+checkpoint_seconds = 0
 """
 # Memory growth is measured between these chunks (tracing starts at TRACE_FROM, so
 # that the objects of the current chunk exist, traced, at both ends; both ends write
@@ -117,6 +122,40 @@ def reference_run() -> ReferenceRun:
     return ReferenceRun(path, scene, summary, probe)
 
 
+def assert_same_run(path, reference) -> None:
+    """The run in `path` ended exactly as the uninterrupted `reference` run."""
+    assert_same_leaves(read_state(path), reference.summary.state)
+    ours, theirs = read_observables(path), read_observables(reference.path)
+    assert ours.keys() == theirs.keys()
+    for name in theirs:
+        for a, b in zip(ours[name], theirs[name], strict=True):
+            np.testing.assert_array_equal(a, b, err_msg=name)
+    for element in ("position", "velocity", "image"):
+        for a, b in zip(
+            read_trajectory(path, element), read_trajectory(reference.path, element), strict=True
+        ):
+            np.testing.assert_array_equal(a, b, err_msg=element)
+    with open_run_file(path) as mine, open_run_file(reference.path) as other:
+        for name in _datasets(other, "averages"):  # g(r), time correlations
+            np.testing.assert_array_equal(mine[name][()], other[name][()], err_msg=name)
+    assert read_checkpoint(path)["reason"] == "end of run"
+
+
+def _datasets(handle, root: str) -> list[str]:
+    names = []
+    if root in handle:
+        handle[root].visititems(
+            lambda name, item: names.append(f"{root}/{name}") if hasattr(item, "dtype") else None
+        )
+    return names
+
+
+def copy_run(source, target) -> None:
+    """Copy a run file and its checkpoint file (jaxdpd.io.checkpoint)."""
+    shutil.copyfile(source, target)
+    shutil.copyfile(checkpoint_path(source), checkpoint_path(target))
+
+
 def _structure(tree) -> str:
     """The tree structure as text, with object addresses removed: a jax-md neighbour
     list holds functions in its structure, equal in kind but not in identity."""
@@ -137,7 +176,8 @@ def assert_same_leaves(state, expected) -> None:
 
 # FENE dumbbells in a DPD solvent, float32, equilibration, frames and periodic
 # checkpoints in both phases, every observable for a box at rest, on-device
-# correlators (SimState.observers).  (The cell list: jax-md's lists get a
+# correlators (SimState.observers).  Wall-clock checkpoints once an hour: never in a
+# test, but for the one that fakes the clock.  (The cell list: jax-md's lists get a
 # new update function, a static field, at every allocation, so each run of a jax-md
 # scene compiles its chunks again; test_restart runs one as a slow test.)
 POLYMER_SCENE_TOML = """
@@ -168,6 +208,7 @@ rdf_max = 1.5
 rdf_bins = 30
 trajectory_every = 20
 checkpoint_every = 30
+checkpoint_seconds = 3600
 """
 
 

@@ -1,5 +1,7 @@
 """H5MD output layout, the scene stored in it, and the command line."""
 
+import signal
+
 import h5py
 import numpy as np
 from io_runs import (
@@ -9,15 +11,17 @@ from io_runs import (
     reference_run,
 )
 
+from jaxdpd import cli
 from jaxdpd.cli import demo_scene, main
-from jaxdpd.io import load, read_observable, read_scene, read_trajectory
+from jaxdpd.io import load, read_checkpoint, read_observable, read_scene, read_trajectory
 from jaxdpd.statistics import block_average
 
 
 def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint():
     """Layout of H5MD 1.1 (nongnu.org/h5md, "H5MD root level", "Particles group",
     "Simulation box"): metadata, box with step/time hard-linked to position's, image
-    likewise, species, observables with step and time = step × dt, checkpoint."""
+    likewise, species, observables with step and time = step × dt; the checkpoint in
+    its own file."""
     reference = reference_run()
     scene, path = reference.scene, reference.path
     steps, every = scene.run.steps, scene.output.trajectory_every
@@ -50,9 +54,9 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
         assert temperature["value"].fletcher32
         assert temperature["time"].attrs["reduced_unit"] == "τ"
         assert handle["observables/pressure_tensor/value"].shape == (steps, 3, 3)
-        assert handle["checkpoint"].attrs["reason"] == "end of run"
-        assert handle["checkpoint"].attrs["step"] == steps
     assert read_scene(path) == scene
+    checkpoint = read_checkpoint(path)  # beside the file: run.h5.checkpoint
+    assert (checkpoint["reason"], checkpoint["step"]) == ("end of run", steps)
     series = read_observable(path, "temperature")
     np.testing.assert_array_equal(series.step, np.arange(1, steps + 1))
     np.testing.assert_array_equal(series.time, series.step * scene.integrator.dt)
@@ -144,3 +148,29 @@ def test_demo_scene_is_valid_and_small_enough_for_two_minutes():
     # ≈ 2e5 particle-steps/s on 2 cores (benchmarks/dpd_throughput.py): ~35 s of
     # stepping plus compilation stays well under two minutes.
     assert scene.n_particles * (scene.run.steps + scene.run.equilibration) <= 8e6
+
+
+def test_ctrl_c_before_the_first_chunk_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
+    """SIGINT while the scene is built and compiled (before SignalGuard is active)
+    raises KeyboardInterrupt: one line on stderr and status 130.  Started with SIGINT
+    ignored (a background job), jaxdpd listens to it all the same, and puts the
+    ignored disposition back on return."""
+    during = []
+
+    def interrupted(*args, **kwargs):
+        during.append(signal.getsignal(signal.SIGINT))
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "prepare", interrupted)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        assert main(["demo", "-o", str(tmp_path / "demo.h5")]) == 130
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert during == [signal.default_int_handler]
+    error = capsys.readouterr().err.strip()
+    assert error == (
+        "jaxdpd: interrupted by SIGINT before the first chunk or after the last "
+        "(no checkpoint written for it)"
+    )

@@ -1,17 +1,20 @@
-"""Missing, truncated, damaged or foreign files and bad scene files are refused with
-one line naming the problem: RunFileError from the readers, exit status 2 from the
-command line, never a traceback from inside h5py or JAX."""
+"""Missing, truncated, damaged, edited or foreign files and bad scene files are
+refused with one line naming the problem: RunFileError from the readers, exit status
+2 from the command line, never a traceback from inside h5py or JAX.  A refused
+restart leaves the file as it found it."""
 
 import json
 import re
-import shutil
+import zlib
 
 import h5py
+import numpy as np
 import pytest
-from io_runs import SCENE_TOML, reference_run
+from io_runs import SCENE_TOML, copy_run, reference_run
 
 from jaxdpd.cli import main
-from jaxdpd.io import RunFileError, read_scene, read_state
+from jaxdpd.io import RunFileError, load, read_checkpoint, read_scene, read_state, write_tree
+from jaxdpd.io.checkpoint import checkpoint_path
 
 
 def _flip_byte(path, offset: int) -> None:
@@ -37,32 +40,64 @@ def _foreign(path):
         handle["data"] = [1, 2, 3]
 
 
-def _edit(change):
+def _edit(change, which=lambda path: path):
+    """Edit the run file (or, with which=checkpoint_path, its checkpoint) with h5py."""
+
     def damage(path):
-        with h5py.File(path, "r+") as handle:
+        with h5py.File(which(path), "r+") as handle:
             change(handle)
 
     return damage
 
 
+def _in_checkpoint(damage):
+    return lambda path: damage(checkpoint_path(path))
+
+
+def _set_scene(handle, text: str) -> None:
+    """Replace the stored scene and its checksum (an edit the checksum cannot see)."""
+    handle["parameters"].attrs["scene"] = text
+    handle["parameters"].attrs["scene_crc32"] = np.uint32(zlib.crc32(text.encode()))
+
+
 def _scene_json(handle):
     data = json.loads(handle["parameters"].attrs["scene"])
     data["seed"] = -1
-    handle["parameters"].attrs["scene"] = json.dumps(data)
+    _set_scene(handle, json.dumps(data))
 
 
-def _flip_in(dataset_path: str):
+def _scene_digit(path):
+    """One digit of the scene changed in the file's raw bytes (γ = 4.5 → 4.7)."""
+    raw = path.read_bytes()
+    assert raw.count(b'"gamma": 4.5') == 1
+    path.write_bytes(raw.replace(b'"gamma": 4.5', b'"gamma": 4.7'))
+
+
+def _flip_in(dataset_path: str, chunk: int = 0):
     def damage(path):
         with h5py.File(path, "r") as handle:
             dataset = handle[dataset_path]
-            offset = (
-                dataset.id.get_offset()
-                if dataset.chunks is None
-                else dataset.id.get_chunk_info(0).byte_offset
-            )
+            if dataset.chunks is None:
+                offset = dataset.id.get_offset()
+            else:
+                chunks = dataset.id.get_num_chunks()
+                offset = dataset.id.get_chunk_info(chunk % chunks).byte_offset
         _flip_byte(path, offset + 5)
 
     return damage
+
+
+def set_checkpoint_header(path, **changes) -> None:
+    """Rewrite fields of a checkpoint's header with a valid checksum."""
+    with h5py.File(checkpoint_path(path), "r+") as handle:
+        header = json.loads(handle.attrs["header"]) | changes
+        text = json.dumps(header, sort_keys=True)
+        handle.attrs["header"] = text
+        handle.attrs["header_crc32"] = np.uint32(zlib.crc32(text.encode()))
+
+
+def _header_byte(handle):
+    handle.attrs["header"] = handle.attrs["header"].replace('"step": 2400', '"step": 2300')
 
 
 DAMAGE = {
@@ -70,25 +105,49 @@ DAMAGE = {
     "truncated": (_truncate, "not a readable HDF5 file"),
     "not HDF5": (_not_hdf5, "not a readable HDF5 file"),
     "foreign HDF5": (_foreign, "not a jaxdpd file"),
+    "scene digit changed": (_scene_digit, r"stored scene \(/parameters:scene\) fails its checksum"),
     "scene not JSON": (
-        _edit(lambda h: h["parameters"].attrs.__setitem__("scene", "{seed")),
+        _edit(lambda h: _set_scene(h, "{seed")),
         "stored scene is not valid JSON",
     ),
     "scene invalid": (_edit(_scene_json), r"stored scene is invalid \(seed = -1"),
-    "no checkpoint": (_edit(lambda h: h.__delitem__("checkpoint")), "holds no checkpoint"),
-    "checkpoint incomplete": (
-        _edit(lambda h: h["checkpoint"].attrs.__setitem__("complete", False)),
-        "checkpoint is incomplete",
+    "no checkpoint": (lambda path: checkpoint_path(path).unlink(), "has no checkpoint"),
+    "checkpoint truncated": (_in_checkpoint(_truncate), "checkpoint: not a readable HDF5 file"),
+    "checkpoint header edited": (
+        _edit(_header_byte, checkpoint_path),
+        "checkpoint header fails its checksum",
     ),
-    "leaf damaged": (_flip_in("checkpoint/state/positions"), "positions fails its checksum"),
+    "another run's checkpoint": (
+        lambda path: set_checkpoint_header(path, run_id="0" * 32),
+        "belongs to another run",
+    ),
+    "leaf damaged": (
+        _in_checkpoint(_flip_in("state/positions")),
+        "positions fails its checksum",
+    ),
     "leaf missing": (
-        _edit(lambda h: h.__delitem__("checkpoint/state/velocities")),
+        _edit(lambda h: h.__delitem__("state/velocities"), checkpoint_path),
         "velocities is missing",
     ),
-    "series damaged": (_flip_in("observables/temperature/value"), "stored series is damaged"),
+    "unknown accumulator": (
+        _edit(lambda h: write_tree(h["extras"], {"x": np.ones(1)}), checkpoint_path),
+        r"holds the accumulators \['x'\], this scene needs \[\]",
+    ),
+    "series damaged": (
+        _flip_in("observables/temperature/value"),
+        "observables/temperature/value: the block holding its last sample",
+    ),
+    "series deleted": (
+        _edit(lambda h: h.__delitem__("observables/temperature")),
+        "observables/temperature missing, although the checkpoint at step 2400 counts",
+    ),
     "series cut short": (
         _edit(lambda h: h["observables/pressure/value"].resize(7, axis=0)),
-        r"observables/pressure does not hold steps 1…2400",
+        r"observables/pressure/value holds 7 samples, the checkpoint at step 2400 counts 2400",
+    ),
+    "last frame block damaged": (
+        _flip_in("particles/all/position/value", chunk=-1),
+        "particles/all/position/value: the block holding its last sample",
     ),
 }
 
@@ -97,24 +156,37 @@ DAMAGE = {
 def test_a_damaged_file_is_refused_by_restart_with_one_line_and_exit_2(case, tmp_path, capsys):
     damage, message = DAMAGE[case]
     path = tmp_path / "run.h5"
-    shutil.copyfile(reference_run().path, path)
+    copy_run(reference_run().path, path)
+    before = path.read_bytes() if path.exists() else None
     damage(path)
+    damaged = path.read_bytes() if path.exists() else None
     assert main(["run", "--restart", str(path), "-q"]) == 2
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1, error
     assert error.startswith("jaxdpd: invalid input: ") and str(path) in error
     assert re.search(message, error), error
+    if before is not None and damaged is not None:  # refused before changing anything
+        assert path.read_bytes() == damaged
 
 
-@pytest.mark.parametrize("case", ["truncated", "scene invalid", "leaf damaged"])
+READERS = {
+    "truncated": read_scene,
+    "scene invalid": read_scene,
+    "scene digit changed": read_scene,
+    "leaf damaged": read_state,
+    "checkpoint header edited": read_checkpoint,
+    "another run's checkpoint": load,
+}
+
+
+@pytest.mark.parametrize("case", list(READERS))
 def test_readers_raise_run_file_errors_for_damaged_files(case, tmp_path):
     damage, message = DAMAGE[case]
     path = tmp_path / "run.h5"
-    shutil.copyfile(reference_run().path, path)
+    copy_run(reference_run().path, path)
     damage(path)
-    reader = read_state if case == "leaf damaged" else read_scene
     with pytest.raises(RunFileError, match=message):
-        reader(path)
+        READERS[case](path)
 
 
 SCENE_FILES = {
@@ -150,11 +222,18 @@ def test_bad_command_lines_exit_2_with_one_line(argv, named, tmp_path, capsys, m
     assert len(error.splitlines()) == 1 and named in error, error
 
 
+def test_a_scene_file_that_is_not_utf8_is_refused_naming_it(tmp_path, capsys):
+    scene_file = tmp_path / "latin1.toml"
+    scene_file.write_bytes("# γ\n[particles]\ncount = 300\n".encode("latin-1", "replace") + b"\xff")
+    assert main(["run", str(scene_file)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and f"{scene_file}: not UTF-8" in error, error
+
+
 def test_a_new_run_refuses_to_overwrite_an_unfinished_one(tmp_path, capsys):
     path = tmp_path / "run.h5"
-    shutil.copyfile(reference_run().path, path)
-    with h5py.File(path, "r+") as handle:
-        handle["checkpoint"].attrs["reason"] = "interrupted by SIGINT"
+    copy_run(reference_run().path, path)
+    set_checkpoint_header(path, reason="interrupted by SIGINT")
     scene_file = tmp_path / "scene.toml"
     scene_file.write_text(SCENE_TOML)
     assert main(["run", str(scene_file), "-o", str(path)]) == 2

@@ -8,10 +8,11 @@ noise, jaxdpd.noise; the same compiled step on the same CPU), so no tolerance is
 needed.
 """
 
+import errno
+import itertools
 import os
 import re
 import shlex
-import shutil
 import signal
 import subprocess
 import sys
@@ -19,51 +20,29 @@ import threading
 import time
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 from io_runs import (
     SCENE_TOML,
     assert_same_leaves,
+    assert_same_run,
+    copy_run,
     polymer_reference_run,
     polymer_scene,
     reference_run,
 )
 
+from jaxdpd import runner
 from jaxdpd.cli import main
 from jaxdpd.driver import RunInterrupted, SignalGuard
-from jaxdpd.io import read_checkpoint, read_observables, read_state, read_trajectory
-from jaxdpd.io.reader import open_run_file
-from jaxdpd.runner import resume, simulate
+from jaxdpd.io import RunFileError, checkpoint, read_checkpoint, read_observables, read_trajectory
+from jaxdpd.io.checkpoint import checkpoint_path
+from jaxdpd.io.errors import OutputError
+from jaxdpd.io.h5md import H5MDWriter
+from jaxdpd.runner import prepare, resume, simulate
 
 REPOSITORY = Path(__file__).resolve().parents[1]
-
-
-def assert_same_run(path, reference) -> None:
-    """The run in `path` ended exactly as the uninterrupted `reference` run."""
-    assert_same_leaves(read_state(path), reference.summary.state)
-    ours, theirs = read_observables(path), read_observables(reference.path)
-    assert ours.keys() == theirs.keys()
-    for name in theirs:
-        for a, b in zip(ours[name], theirs[name], strict=True):
-            np.testing.assert_array_equal(a, b, err_msg=name)
-    for element in ("position", "velocity", "image"):
-        for a, b in zip(
-            read_trajectory(path, element), read_trajectory(reference.path, element), strict=True
-        ):
-            np.testing.assert_array_equal(a, b, err_msg=element)
-    with open_run_file(path) as mine, open_run_file(reference.path) as other:
-        for name in _datasets(other, "averages"):  # g(r), time correlations
-            np.testing.assert_array_equal(mine[name][()], other[name][()], err_msg=name)
-    assert read_checkpoint(path)["reason"] == "end of run"
-
-
-def _datasets(handle, root: str) -> list[str]:
-    names = []
-    if root in handle:
-        handle[root].visititems(
-            lambda name, item: names.append(f"{root}/{name}") if hasattr(item, "dtype") else None
-        )
-    return names
 
 
 class _StderrReader(threading.Thread):
@@ -92,9 +71,9 @@ class _StderrReader(threading.Thread):
 def test_sigint_to_a_cli_run_then_restart_ends_bit_identical_in_float64(tmp_path, capsys):
     """A real `jaxdpd run` subprocess gets SIGINT once it has written two chunks; it
     finishes the chunk in flight, checkpoints, exits 130 and prints the command that
-    resumes it; that command completes the run."""
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        pytest.skip("SIGINT is ignored here (background job), and so in the child")
+    resumes it; that command completes the run.  The child starts with SIGINT
+    ignored, as a job started in the background by a shell script does: jaxdpd
+    handles it all the same."""
     reference = reference_run()
     scene = reference.scene
     assert scene.precision == "float64"
@@ -104,8 +83,10 @@ def test_sigint_to_a_cli_run_then_restart_ends_bit_identical_in_float64(tmp_path
     environment["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(REPOSITORY), environment.get("PYTHONPATH")) if p
     )
+    command = [sys.executable, "-m", "jaxdpd.cli", "run", str(scene_file), "-o", str(output)]
     process = subprocess.Popen(
-        [sys.executable, "-m", "jaxdpd.cli", "run", str(scene_file), "-o", str(output)],
+        # The shell ignores SIGINT, and exec keeps it ignored, as in a background job.
+        ["sh", "-c", 'trap "" INT; exec "$@"', "sh", *command],
         cwd=tmp_path,
         env=environment,
         stdout=subprocess.PIPE,
@@ -154,6 +135,18 @@ def test_the_signal_guard_records_the_first_signal_and_restores_the_handlers():
         assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
         assert signal.getsignal(signal.SIGINT) is signal.SIG_DFL
     assert signal.getsignal(signal.SIGTERM) is previous
+
+
+def test_the_signal_guard_handles_a_signal_that_was_ignored_and_ignores_it_again():
+    previous = signal.signal(signal.SIGTERM, signal.SIG_IGN)  # as in a background job
+    try:
+        with SignalGuard() as guard:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.01)
+            assert guard() == "SIGTERM"
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 class _SignalAfter:
@@ -236,10 +229,22 @@ def test_sigint_in_production_then_cli_restart_matches(tmp_path):
 def test_resuming_a_finished_run_appends_nothing(tmp_path):
     reference = polymer_reference_run()
     path = tmp_path / "copy.h5"
-    shutil.copyfile(reference.path, path)
+    copy_run(reference.path, path)
     summary = resume(path, progress=False)
     assert_same_run(path, reference)
     assert summary.averages == reference.summary.averages
+
+
+def test_restart_into_a_copy_takes_the_checkpoint_along_and_keeps_the_original(tmp_path):
+    """`jaxdpd run --restart FILE -o COPY` continues in COPY (with its own checkpoint
+    file); FILE and its checkpoint are left as they were."""
+    reference = polymer_reference_run()
+    original, copy = tmp_path / "run.h5", tmp_path / "copy.h5"
+    copy_run(reference.path, original)
+    before = [p.read_bytes() for p in (original, checkpoint_path(original))]
+    assert main(["run", "--restart", str(original), "-o", str(copy), "-q"]) == 0
+    assert_same_run(copy, reference)
+    assert [p.read_bytes() for p in (original, checkpoint_path(original))] == before
 
 
 @pytest.mark.slow
@@ -250,7 +255,7 @@ def test_a_finished_run_extended_with_more_steps_equals_a_longer_run(tmp_path):
     longer = polymer_scene().replace(run={"steps": 150})
     direct = simulate(longer, tmp_path / "direct.h5", progress=False)
     path = tmp_path / "extended.h5"
-    shutil.copyfile(reference.path, path)
+    copy_run(reference.path, path)
     with pytest.raises(ValueError, match="at least 100"):
         resume(path, steps=90, progress=False)
     extended = resume(path, steps=150, progress=False)
@@ -280,3 +285,90 @@ def test_a_jax_md_neighbour_list_run_interrupted_and_resumed_matches(tmp_path):
     resumed = resume(path, progress=False)
     assert_same_leaves(resumed.state, direct.state)
     assert resumed.averages == direct.averages
+
+
+# -- faults: the cheap, in-process part (tests/test_faults.py kills real processes) --
+
+
+def _checkpoints_written(monkeypatch) -> list:
+    """(step, reason) of every checkpoint the writer is asked for, from now on."""
+    written = []
+    original = H5MDWriter.write_checkpoint
+
+    def record(self, state, phase, reason, extras=None):
+        written.append((int(state.step), reason))
+        original(self, state, phase, reason, extras)
+
+    monkeypatch.setattr(H5MDWriter, "write_checkpoint", record)
+    return written
+
+
+def test_a_checkpoint_is_written_every_checkpoint_seconds_of_wall_time(tmp_path, monkeypatch):
+    """A clock that advances by output.checkpoint_seconds at every reading: a
+    periodic checkpoint at every chunk end, beside those every checkpoint_every steps."""
+    scene = polymer_scene()
+    ticks = itertools.count(0.0, scene.output.checkpoint_seconds)
+    monkeypatch.setattr(runner.time, "monotonic", lambda: next(ticks))
+    written = _checkpoints_written(monkeypatch)
+    simulate(scene, tmp_path / "run.h5", progress=False)
+    chunk, total = scene.run.chunk, scene.run.equilibration + scene.run.steps
+    assert written == [(step, "periodic") for step in range(chunk, total + 1, chunk)] + [
+        (total, "end of run")
+    ]
+
+
+def test_a_checkpoint_write_that_fails_leaves_the_previous_checkpoint(tmp_path, monkeypatch):
+    """The third checkpoint's file cannot be renamed into place (ENOSPC raised where
+    the rename happens): OutputError names it; the second checkpoint is intact and
+    resuming from it ends as the uninterrupted run."""
+    reference = polymer_reference_run()
+    path = tmp_path / "run.h5"
+    replace, renames = os.replace, []
+
+    def failing_replace(source, target):
+        if str(target).endswith(".checkpoint"):
+            renames.append(target)
+            if len(renames) == 3:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        replace(source, target)
+
+    monkeypatch.setattr(checkpoint.os, "replace", failing_replace)
+    with pytest.raises(OutputError, match=r"run.h5.checkpoint: writing the checkpoint of step 100"):
+        simulate(reference.scene, path, progress=False)
+    monkeypatch.undo()
+    assert read_checkpoint(path)["step"] == 70
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.h5", "run.h5.checkpoint"]
+    resume(path, progress=False)
+    assert_same_run(path, reference)
+
+
+def test_a_full_disk_under_the_output_file_stops_the_run_and_it_resumes_later(tmp_path):
+    """ENOSPC simulated: after the chunk that ends at step 90, the output file's
+    descriptor is pointed at /dev/full.  The next write fails: OutputError, no crash,
+    the checkpoint of step 70 intact; the file on disk resumes from it."""
+    reference = polymer_reference_run()
+    path = tmp_path / "run.h5"
+
+    def fill_disk(result):
+        if int(result.state.step) == 90:
+            full = os.open("/dev/full", os.O_RDWR)
+            os.dup2(full, run.writer.file.id.get_vfd_handle())
+            os.close(full)
+
+    run = prepare(reference.scene, path, progress=False, on_chunk=fill_disk)
+    with pytest.raises(OutputError, match=r"run.h5: appending the observables after step 90"):
+        run.execute()
+    assert read_checkpoint(path)["step"] == 70
+    resume(path, progress=False)
+    assert_same_run(path, reference)
+
+
+def test_a_restart_without_the_checkpointed_g_of_r_is_refused(tmp_path):
+    """g(r) is accumulated on the host and kept in the checkpoint only: without it
+    the run's g(r) cannot be completed, so the restart refuses (exit status 2)."""
+    path = tmp_path / "run.h5"
+    copy_run(polymer_reference_run().path, path)
+    with h5py.File(checkpoint_path(path), "r+") as handle:
+        del handle["extras/rdf_counts"], handle["extras/rdf_samples"]
+    with pytest.raises(RunFileError, match=r"accumulators \[\], this scene needs \['rdf_counts'"):
+        resume(path, progress=False)

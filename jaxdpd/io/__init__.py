@@ -5,10 +5,14 @@ write_tree / read_tree              any pytree to/from an HDF5 group, bit for bi
 load, read_scene, read_state,       jaxdpd.io.reader
 read_observable(s), read_trajectory,
 read_checkpoint
+checkpoint_path                     the checkpoint file beside an output file
+                                    (jaxdpd.io.checkpoint: why, and its layout)
 RunFileError                        raised for files that cannot be read back
+OutputError                         raised when writing the output fails
 """
 
-from jaxdpd.io.errors import RunFileError
+from jaxdpd.io.checkpoint import checkpoint_path
+from jaxdpd.io.errors import OutputError, RunFileError
 from jaxdpd.io.h5md import H5MDWriter
 from jaxdpd.io.pytree_store import read_tree, write_tree
 from jaxdpd.io.reader import (
@@ -25,9 +29,11 @@ from jaxdpd.io.reader import (
 
 __all__ = [
     "H5MDWriter",
+    "OutputError",
     "RunFileError",
     "RunRecord",
     "Series",
+    "checkpoint_path",
     "load",
     "read_checkpoint",
     "read_observable",

@@ -2,11 +2,12 @@
 
 Every failure to read (missing or truncated file, damaged content, an invalid stored
 scene, a checkpoint that does not fit the scene) raises `RunFileError` naming the
-file and the part, never a bare h5py or JAX exception.
+file and the part, never a bare h5py or JAX exception.  The state is read from the
+file's checkpoint file (`<file>.checkpoint`, jaxdpd.io.checkpoint).
 """
 
-import contextlib
 import json
+import zlib
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -14,7 +15,7 @@ import h5py
 import numpy as np
 
 from jaxdpd.io import checkpoint
-from jaxdpd.io.errors import RunFileError
+from jaxdpd.io.errors import RunFileError, open_run_file
 from jaxdpd.io.layout import PARTICLES
 
 
@@ -43,28 +44,6 @@ class RunRecord:
     observables: dict
 
 
-@contextlib.contextmanager
-def open_run_file(path, mode: str = "r"):
-    """Open a file, turning every h5py failure inside the block into RunFileError."""
-    try:
-        handle = h5py.File(str(path), mode)
-    except FileNotFoundError:
-        raise RunFileError(f"{path}: no such file") from None
-    except OSError as error:
-        raise RunFileError(f"{path}: not a readable HDF5 file ({_first_line(error)})") from None
-    try:
-        yield handle
-    except (OSError, KeyError, RuntimeError) as error:
-        raise RunFileError(f"{path}: damaged or incomplete ({_first_line(error)})") from None
-    finally:
-        with contextlib.suppress(Exception):
-            handle.close()
-
-
-def _first_line(error) -> str:
-    return str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-
-
 def scene_of(handle):
     """The Scene stored in an open file (validated again)."""
     from jaxdpd.scene import Scene
@@ -73,6 +52,17 @@ def scene_of(handle):
     if "parameters" not in handle or "scene" not in handle["parameters"].attrs:
         raise RunFileError(f"{name}: not a jaxdpd file (no /parameters:scene attribute)")
     text = handle["parameters"].attrs["scene"]
+    expected = handle["parameters"].attrs.get("scene_crc32")
+    if expected is None:
+        raise RunFileError(
+            f"{name}: /parameters has no scene_crc32 (written by a jaxdpd older than its "
+            "checksummed scenes, or edited)"
+        )
+    if zlib.crc32(str(text).encode()) != int(expected):
+        raise RunFileError(
+            f"{name}: the stored scene (/parameters:scene) fails its checksum (the file "
+            "was damaged or edited); it is not run"
+        )
     try:
         data = json.loads(text)
     except (TypeError, ValueError) as error:
@@ -101,25 +91,18 @@ def read_state(path, simulation=None):
     """
     from jaxdpd.simulation import build
 
-    with open_run_file(path) as handle:
-        simulation = simulation if simulation is not None else build(scene_of(handle))
-        checkpoint.read_checkpoint_info(handle)  # refuses missing or incomplete ones
-        return checkpoint.read_checkpoint_state(handle, simulation.init_fn())
+    if simulation is None:
+        simulation = build(read_scene(path))
+    return checkpoint.read_checkpoint_state(path, simulation.init_fn())
 
 
 def read_checkpoint(path) -> dict:
     """The checkpoint as plain data: step, time, phase, reason and every state leaf by
     its path ("positions", "pair_list/i", ...), as NumPy arrays; no scene needed."""
-    with open_run_file(path) as handle:
-        info = checkpoint.read_checkpoint_info(handle)
-        data = checkpoint.read_checkpoint_leaves(handle)
-        data.update(
-            step=info.step,
-            time=float(handle[checkpoint.GROUP].attrs["time"]),
-            phase=info.phase,
-            reason=info.reason,
-        )
-        return data
+    info = checkpoint.read_checkpoint_info(path)
+    data = checkpoint.read_checkpoint_leaves(path)
+    data.update(step=info.step, time=info.time, phase=info.phase, reason=info.reason)
+    return data
 
 
 def _series(group) -> Series:
@@ -171,16 +154,21 @@ def read_trajectory(path, element: str = "position") -> Series:
 
 def load(path) -> RunRecord:
     """Scene, checkpointed state (restored through the scene's build()) and every
-    observable of a file."""
+    observable of a file (state and checkpoint None when it has no checkpoint file)."""
     from jaxdpd.simulation import build
 
     with open_run_file(path) as handle:
         scene = scene_of(handle)
-        state = info = None
-        if checkpoint.GROUP in handle:
-            info = checkpoint.read_checkpoint_info(handle)
-            state = checkpoint.read_checkpoint_state(handle, build(scene).init_fn())
+        run_id = handle["parameters"].attrs.get("run_id")
         observables = {
             name: _series(handle[f"observables/{name}"]) for name in time_series_names(handle)
         }
+    state = info = None
+    if checkpoint.checkpoint_path(path).exists():
+        info = checkpoint.read_checkpoint_info(path)
+        if info.run_id != run_id:
+            raise RunFileError(
+                f"{checkpoint.checkpoint_path(path)}: belongs to another run than {path}"
+            )
+        state = checkpoint.read_checkpoint_state(path, build(scene).init_fn())
     return RunRecord(scene, state, info, observables)
