@@ -325,9 +325,11 @@ class Run:
         if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
             (t0, s0), (t1, s1) = self.chunk_ends
             summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
+        # Under shear g3 holds the flow's dispersion along x: no D_CM from its slope.
+        diffusion = center_of_mass_diffusion(correlations) if scene.flow is None else {}
         summary.averages = (
             _summary_averages(self.averages)
-            | center_of_mass_diffusion(correlations)
+            | diffusion
             | summary_rows(scene, self.averages.block_means(), self.averages.n_blocks)
         )
         summary.references = ideal_references(self.simulation.blocks, scene.solvent.kT)

@@ -501,10 +501,11 @@ class Scene:
                 "list); remove them"
             )
         _check_spring_reach(spring_repulsion, output, neighbors, heights)
-        if flow is not None and "dynamics" in output.observables:
+        if _kind(flow) == "planar_elongation" and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
-                "rest; under flow, measure the chains with 'conformation'"
+                "rest or in shear (Kraynik–Reinelt positions cannot be unwrapped); under "
+                "elongation, measure the chains with 'conformation'"
             )
         body_force = _read_body_force(data.get("body_force"), solvent, particles)
         if "drag" in output.observables and _kind(body_force) != "tagged":

@@ -463,7 +463,9 @@ def build(scene: Scene) -> Simulation:
                 state.step,
                 scene.output.correlator_every,
                 state.observers,
-                lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
+                lambda c: update_chain_correlators(
+                    c, bound_box, state.positions, state.image, blocks
+                ),
             )
             state = state.set(observers=observers)
         if "spring_pairs" in observables:
@@ -486,7 +488,11 @@ def build(scene: Scene) -> Simulation:
             return state
         return state.set(
             observers=init_chain_correlators(
-                box, state.positions, state.image, blocks, scene.output.correlator_levels
+                box.bind(state.box_state),
+                state.positions,
+                state.image,
+                blocks,
+                scene.output.correlator_levels,
             )
         )
 
