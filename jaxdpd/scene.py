@@ -992,6 +992,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
         )
     if lengths is not None:
         volume = math.prod(lengths)
+        if not 0 < volume < math.inf:
+            raise ValueError(
+                f"box.lengths = {list(lengths)}: the volume {volume} is not a positive "
+                "finite number (edges of a few r_c and more)"
+            )
         if (density is None) == (count is None):
             raise ValueError(
                 "particles: with box.lengths given, give exactly one of particles.density "
@@ -1114,6 +1119,8 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
     elif isinstance(a, dict):
         matrix = [[None] * n for _ in range(n)]
         for key in a:
+            if not isinstance(key, str):
+                raise TypeError(f"pair.a: key {key!r} must be a string 'A-B' of species names")
             parts = key.split("-")
             if len(parts) != 2:
                 raise ValueError(f"pair.a: key {key!r} must be 'A-B' with two species names")

@@ -59,6 +59,7 @@ from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import pair_geometry, pair_sums
 from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
+from jaxdpd.resources import check_resources
 from jaxdpd.scene import Scene
 from jaxdpd.segments import (
     pair_magnitudes,
@@ -319,6 +320,7 @@ def build(scene: Scene) -> Simulation:
     """
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
+    check_resources(scene, box)
     terms = pair_terms(scene, dtype)
     blocks = chain_blocks(scene)
     first, stop = force_range(scene, blocks)
