@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from conftest import scene_dict
-from io_runs import reference_run
+from io_runs import polymer_reference_run, reference_run
 
 from jaxdpd.boxes.lees_edwards import LeesEdwardsBox
 from jaxdpd.io.reader import read_trajectory, read_unwrapped_positions
@@ -74,6 +74,17 @@ def _non_affine_steps(frames, scene):
     height = 0.5 * (values[1:, :, 1] + values[:-1, :, 1]) - 0.5 * scene.box.lengths[1]
     steps[..., 0] -= scene.flow.shear_rate * height * np.diff(times)[:, None]
     return np.linalg.norm(steps, axis=-1)
+
+
+def test_box_at_rest_unwraps_by_its_edge_lengths():
+    """The I/O tests' periodic polymer run (built once per session): (3,) edges."""
+    path = polymer_reference_run().path
+    frames = read_unwrapped_positions(path)
+    position = read_trajectory(path, "position").value.astype(np.float64)
+    image = read_trajectory(path, "image").value
+    edges = read_trajectory(path, "box/edges").value
+    assert edges.shape == (len(position), 3)
+    np.testing.assert_array_equal(frames.value, position + image * edges[:, None, :])
 
 
 def test_shared_sheared_run_unwraps_without_jumps():
