@@ -5,8 +5,10 @@ A scene whose sizes are each valid can still ask for more than a machine holds
 of step counters and buffer indices (`run.steps ≥ 2³¹`,
 `neighbors.capacity_multiplier = 1e7`), or crowd so many particles into one
 neighbour cell that tracing the cell list's per-slot loop never ends (3000
-particles in a 2.1³ box).  Each of these is refused here with a `ResourceError`
-(a ValueError) that names the field responsible, its value and what would fit.
+particles in a 2.1³ box), or shear so fast that the Lees–Edwards offset moves by half
+a box in one step (its image bookkeeping assumes less).  Each of these is refused
+here with a `ResourceError` (a ValueError) that names the field responsible, its
+value and what would fit.
 
 The memory estimate is a lower bound: it counts only arrays every such run holds
 (particle arrays, the pair buffer, the per-chunk series of each requested
@@ -121,6 +123,7 @@ def check_resources(scene, box, available: int | None = None) -> None:
             "from its checkpoint in a new file)"
         )
     _check_cell_occupancy(scene, box)
+    _check_offset_step(scene)
     sizes = estimated_bytes(scene, box.volume)
     total = sum(sizes.values())
     available = available_memory() if available is None else available
@@ -163,4 +166,21 @@ def _check_cell_occupancy(scene, box) -> None:
             f"average ({cells} cells of at least r_c + skin = {reach:g}), more than "
             f"{MAX_CELL_OCCUPANCY}; lower the density, enlarge the box (three cells "
             "per axis need edges ≥ 3 (r_c + skin)), or use neighbors.method = 'all_pairs'"
+        )
+
+
+def _check_offset_step(scene) -> None:
+    """Refuse a shear whose Lees–Edwards offset moves by L_x/2 or more in one step: the
+    image counters are carried across the offset's wraps by reading them from its
+    change (LeesEdwardsBox.carry_images), which needs |γ̇| L_y Δt < L_x/2."""
+    flow = scene.flow
+    if flow is None or flow.kind != "shear":
+        return
+    lx, ly, _ = scene.box.lengths
+    shift = abs(flow.shear_rate) * ly * scene.step_time
+    if not shift < 0.5 * lx:
+        raise ResourceError(
+            f"flow.shear_rate = {flow.shear_rate:g}: the Lees–Edwards offset would move by "
+            f"|γ̇| L_y Δt = {shift:.4g} per step, at least half of L_x = {lx:g}; lower the "
+            "shear rate or the time step (a step that long cannot be integrated anyway)"
         )

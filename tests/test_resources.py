@@ -42,6 +42,8 @@ ISSUE_SCENES = [
     ({"run": {"steps": 2**31}}, ValueError, ["run.steps", "2147483647"]),
     ({"run": {"steps": 2**30, "equilibration": 2**30 + 5}}, ResourceError, ["run.equilibration"]),
     ({"run": {"steps": 2**30, "chunk": 2**30}}, ResourceError, ["run.chunk", "GiB"]),
+    # |γ̇| L_y Δt = 1e3 · 5.85 · 0.04 ≫ L_x / 2.
+    ({"flow": {"kind": "shear", "shear_rate": -1e3}}, ResourceError, ["flow.shear_rate"]),
 ]
 
 

@@ -19,7 +19,8 @@ n_y γ̇ L_y t, the streaming velocity of the image the particle sits in.  When 
 offset wraps by −L_x, n_y a2 jumps by −n_y L_x x̂, so every particle's x counter gains
 n_y (`LeesEdwardsBox.carry_images`); without that, particles that have crossed the
 y boundary jumped by multiples of L_x at each wrap.  This needs |γ̇| L_y Δt < L_x/2
-(the wraps of a step are read from the change of Δ), far beyond any usable step.
+(the wraps of a step are read from the change of Δ; build() refuses faster shear,
+jaxdpd.resources), far beyond any usable step.
 
 Velocities are stored as peculiar velocities c = v − u(r) (SLLOD, thesis eqs.
 3.42–3.43).  A particle leaving through y = L_y re-enters at y − L_y with x − Δ; its
