@@ -62,15 +62,16 @@ def pair_capacity(scene, box_volume: float) -> float:
     return ideal * scene.neighbors.capacity_multiplier
 
 
-def estimated_bytes(scene, box_volume: float) -> dict:
+def estimated_bytes(scene, box) -> dict:
     """Lower bounds of the memory a run of `scene` holds, by the field that sets each.
 
     Args:
         scene: a validated Scene.
-        box_volume: the box volume (r_c³).
+        box: its static box (jaxdpd.boxes).
     Returns:
-        dict field name → bytes (float, may exceed any integer type).
+        dict field name → bytes (float, inf where a size overflows a float).
     """
+    box_volume = box.volume
     f = np.dtype(scene.precision).itemsize
     n = scene.n_particles
     output, chunk = scene.output, scene.run.chunk
@@ -79,6 +80,9 @@ def estimated_bytes(scene, box_volume: float) -> dict:
     sizes = {"particles.count": n * (9 * f + 16)}
     if scene.pair is not None or scene.solvent.method in ("dpd", "lowe_andersen"):
         sizes["neighbors.capacity_multiplier"] = 8 * pair_capacity(scene, box_volume)
+        if scene.neighbors.method == "cell_list":
+            # The cell grid: at least three int32 member slots per cell.
+            sizes["box.lengths"] = 12 * cell_count(scene, box)
     # Each chunk's per-step series are stacked on device and copied to the host.
     series = 1 + 9 * ("pressure" in observables)
     sizes["run.chunk"] = chunk * series * f
@@ -124,7 +128,7 @@ def check_resources(scene, box, available: int | None = None) -> None:
         )
     _check_cell_occupancy(scene, box)
     _check_offset_step(scene)
-    sizes = estimated_bytes(scene, box.volume)
+    sizes = estimated_bytes(scene, box)
     total = sum(sizes.values())
     available = available_memory() if available is None else available
     if total > available:
@@ -149,21 +153,26 @@ def check_resources(scene, box, available: int | None = None) -> None:
         )
 
 
+def cell_count(scene, box) -> float:
+    """Cells of the neighbour grid of a cell-list scene (a float: inf beyond 1e308)."""
+    from jaxdpd.neighbors.cell_list import cell_grid
+
+    return math.prod(float(n) for n in cell_grid(box, scene.cutoff + scene.neighbors.skin))
+
+
 def _check_cell_occupancy(scene, box) -> None:
     """Refuse cell-list scenes whose cells would hold more than MAX_CELL_OCCUPANCY
     particles on average."""
     if scene.neighbors.method != "cell_list":
         return
-    from jaxdpd.neighbors.cell_list import cell_grid
-
     reach = scene.cutoff + scene.neighbors.skin
-    cells = math.prod(cell_grid(box, reach))
+    cells = cell_count(scene, box)
     occupancy = scene.n_particles / cells
     if occupancy > MAX_CELL_OCCUPANCY:
         raise ResourceError(
             f"particles.count = {scene.n_particles} in box.lengths = "
             f"{list(box.lengths)}: {occupancy:.0f} particles per neighbour cell on "
-            f"average ({cells} cells of at least r_c + skin = {reach:g}), more than "
+            f"average ({cells:.0f} cells of at least r_c + skin = {reach:g}), more than "
             f"{MAX_CELL_OCCUPANCY}; lower the density, enlarge the box (three cells "
             "per axis need edges ≥ 3 (r_c + skin)), or use neighbors.method = 'all_pairs'"
         )
