@@ -6,7 +6,7 @@ another exception, never a hang (a per-example alarm).
 The fields are those of the scenes' own `to_dict()` (every field a scene resolves,
 defaults included) of a few base scenes covering the solvents, a sheared polymer
 solution with its observables, plus the optional fields they leave out.  The default
-run tries a few examples (seconds); the slow test many, and also draws each accepted
+run tries a few examples (seconds); the slow tests many, and draw each accepted
 scene's initial state (placement and the first neighbour-list build, where scenes
 used to hang).
 """
@@ -160,7 +160,7 @@ def test_extreme_scene_fields_are_refused_by_name_or_build(example):
     check_scene(_apply(base, mutations), seconds=20, initial_state=False)
 
 
-@pytest.mark.slow  # 400 scenes built, 30 initial states drawn: several minutes
+@pytest.mark.slow  # 400 scenes built, 100 initial states drawn: a few minutes
 @settings(max_examples=400, deadline=None, suppress_health_check=list(HealthCheck))
 @given(mutated_scenes(max_mutations=3))
 def test_extreme_scene_fields_many(example):
@@ -169,7 +169,7 @@ def test_extreme_scene_fields_many(example):
 
 
 @pytest.mark.slow
-@settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=100, deadline=None, suppress_health_check=list(HealthCheck))
 @given(mutated_scenes(max_mutations=1))
 def test_extreme_scene_fields_draw_their_initial_state(example):
     base, mutations = example
