@@ -248,8 +248,10 @@ class ChainBondResult:
         forces: (C, M, 3) force on every bead.
         virial: (3, 3) Σ_springs r_ij ⊗ F_ij = −Σ Q ⊗ (T/Q) Q.
         overstretched: bool, some FENE spring at or past its maximum extension.
-        past_half_box: bool, some spring's minimum image disagrees with its beads'
-            image counters (the spring is longer than half a box edge).
+        past_half_box: bool, some spring cannot be told from its periodic images:
+            in a box whose image counters give no unwrapped coordinates (Lees–Edwards,
+            Kraynik–Reinelt) it is too long for its minimum image to be certain, or,
+            with `half_box_limit`, it is longer than half a box edge along an axis.
     """
 
     forces: jnp.ndarray
@@ -258,21 +260,28 @@ class ChainBondResult:
     past_half_box: jnp.ndarray
 
 
-def chain_bond_forces(box, positions, image, law: BondLaw, with_virial: bool):
+def chain_bond_forces(box, positions, image, law: BondLaw, with_virial: bool, half_box_limit=False):
     """Spring forces of linear chains stored bead after bead.
 
     Args:
-        box: the (bound) box; spring vectors by minimum image (thesis eq. 3.4).
+        box: the (bound) box; spring vectors by its `spring_vectors`: from unwrapped
+            coordinates in a periodic box at rest (any length), by minimum image
+            (thesis eq. 3.4) in a flowing one.
         positions: (C, M, 3) wrapped bead positions of C chains of M beads.
         image: (C, M, 3) int32 image counters of the beads.
         law: the bond law.
         with_virial: whether to compute the virial (else zeros).
+        half_box_limit: also report springs with a component longer than half the
+            box edge, for scenes where something else reads the springs by minimum
+            image (the spring-pair list of jaxdpd.segments).
     Returns:
         ChainBondResult.
     """
     separation = positions[:, 1:] - positions[:, :-1]
-    springs = box.minimum_image_vectors(separation)
-    past_half_box = box.springs_past_half_box(separation, springs, image[:, 1:] - image[:, :-1])
+    springs, past_half_box = box.spring_vectors(separation, image[:, 1:] - image[:, :-1])
+    if half_box_limit:
+        half = 0.5 * box.lengths_array(springs.dtype)
+        past_half_box = past_half_box | jnp.any(jnp.abs(springs) > half)
     q_sq = jnp.sum(springs * springs, axis=-1)
     pull = law.stiffness(q_sq)[..., None] * springs
     zeros = jnp.zeros_like(pull[:, :1])

@@ -105,7 +105,7 @@ def sensitivity_simulation(simulation, species: str, parameter: str, spring_obse
 
     def step_fn(state):
         state, samples = step(state)
-        chains = chain_coordinates(box.bind(state.box_state), state.positions, block)
+        chains = chain_coordinates(box.bind(state.box_state), state.positions, block, state.image)
         q_sq = jnp.sum(bond_vectors(chains) ** 2, axis=-1)
         values = state.parameters["bond"][species]
 

@@ -12,7 +12,9 @@ SPRING_PAST_HALF_BOX = 16
 FLUID_INVALID = 32
 
 # A kinetic temperature this many times the set value means the integration is
-# unstable (thermostatted DPD stays within a few per cent of it).
+# unstable (thermostatted DPD stays within a few per cent of it).  A
+# Hoogerbrugge–Koelman fluid has no set value: its scale is solvent.initial_kT, the
+# expected temperature of the fluid (jaxdpd.scene).
 RUNAWAY_FACTOR = 100.0
 
 MESSAGES = {
@@ -21,9 +23,11 @@ MESSAGES = {
         "large for the spring's stiffness near full extension (reduce integrator.dt)"
     ),
     SPRING_PAST_HALF_BOX: (
-        "a spring became longer than half a box edge, so its periodic image is "
-        "ambiguous: enlarge the box, or use finitely extensible (FENE) springs with "
-        "max_extension below half the shortest edge"
+        "a spring became too long for its periodic image to be certain (longer than "
+        "half a box edge where it is read by minimum image: a flowing box, "
+        "spring_repulsion or the 'spring_pairs' observable): enlarge the box, or use "
+        "finitely extensible (FENE) springs with max_extension below half the shortest "
+        "edge"
     ),
     FLUID_INVALID: (
         "the lattice-Boltzmann fluid reached a non-positive or non-finite density or "
@@ -37,8 +41,11 @@ MESSAGES = {
         "the usual cause is a time step too large (reduce integrator.dt)"
     ),
     TEMPERATURE_RUNAWAY: (
-        f"kinetic temperature above {RUNAWAY_FACTOR:g}× its set value: the integration is "
-        "unstable; the usual cause is a time step too large (reduce integrator.dt)"
+        f"kinetic temperature above {RUNAWAY_FACTOR:g}× its set value (solvent.kT, or "
+        "solvent.initial_kT for hoogerbrugge_koelman): the integration is unstable; the "
+        "usual cause is a time step too large (reduce integrator.dt); a "
+        "Hoogerbrugge–Koelman fluid whose own temperature is far above initial_kT "
+        "needs initial_kT near it"
     ),
 }
 

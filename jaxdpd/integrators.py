@@ -1,8 +1,8 @@
 """Time integrators.  Each factory returns `step(state) -> state`.
 
 `interactions(positions, velocities, state) -> (vectors, virial, state, bits)` is
-the composed force kernel of the scene (forces for velocity Verlet, impulses for the
-Hoogerbrugge–Koelman collision); it refreshes the neighbour lists itself (it returns
+the composed force kernel of the scene (forces; the Hoogerbrugge–Koelman collision
+enters as its mean force over the step); it refreshes the neighbour lists itself (it returns
 `state` with them refreshed: the pair list, and the spring-pair list where there is
 one) and reports error bits of its own (e.g. an overstretched spring, a spring-pair
 list overflow).
@@ -163,22 +163,26 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
     """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses,
     a box at rest).
 
-        v_i ← v_i + Σ_j Ω_ij e_ij,     r_i ← r_i + v_i δt.
+        v_i ← v_i + δt F_i,     r_i ← r_i + v_i δt,
 
-    The recorded virial parts are those of the collision impulses divided by δt (the
-    mean force they exert over the step).
+    with F_i the sum of the collision's mean force Σ_j Ω_ij e_ij/δt
+    (jaxdpd.thermostats.hoogerbrugge_koelman) and of the springs' and body forces,
+    which Schlijper, Hoogerbrugge & Manke (J. Rheol. 39, 567 (1995)) apply as the
+    impulses F δt in the same update.  The recorded virial parts are those of these
+    forces.  `kT` is the temperature scale of the runaway check: the fluid's
+    expected temperature (solvent.initial_kT), not a set one.
     """
     dt_ = jnp.asarray(dt, dtype)
 
     def step(state):
-        impulses, virial, refreshed, bits = interactions(state.positions, state.velocities, state)
-        velocities = state.velocities + impulses
+        forces, virial, refreshed, bits = interactions(state.positions, state.velocities, state)
+        velocities = state.velocities + dt_ * forces
         positions, image = box.wrap(state.positions + dt_ * velocities, state.image)
         return refreshed.set(
             positions=positions,
             velocities=velocities,
             image=image,
-            virial={part: w / dt_ for part, w in virial.items()},
+            virial=virial,
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, refreshed.pair_list, kT, bits),

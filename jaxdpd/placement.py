@@ -5,7 +5,8 @@ law's placement length (the energy minimum, or a free spring's root-mean-square
 length), so no spring starts overstretched; a FENE spring is placed at its exact
 equilibrium ⟨Q²⟩^{1/2} (thesis eq. 4.8), well inside Q0.  Velocities are
 Maxwell–Boltzmann at the solvent's k_BT (variance k_BT/m per component) with zero
-total momentum.
+total momentum; for a Hoogerbrugge–Koelman solvent, which sets no temperature, at
+its solvent.initial_kT (jaxdpd.scene), and the springs are placed for it too.
 
 With a hard-core pair force (pair.kind = "wca") overlapping particles would start
 with enormous forces, so every particle is then placed at least σ away (minimum
@@ -70,11 +71,10 @@ def initial_configuration(scene, box, dtype, blocks):
         at_edge = positions >= lengths.astype(dtype)
         positions = np.where(at_edge, 0, positions).astype(dtype)
         image = image + at_edge
-    kT = scene.solvent.kT if scene.solvent.method != "hoogerbrugge_koelman" else 1.0
     counts = [s.count for s in scene.particles.species]
     species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
     masses = np.array([s.mass for s in scene.particles.species])[species]
-    velocities = rng.normal(size=(n, 3)) * np.sqrt(kT / masses)[:, None]
+    velocities = rng.normal(size=(n, 3)) * np.sqrt(scene.solvent.kT / masses)[:, None]
     velocities -= (masses @ velocities) / masses.sum()
     return (
         jnp.asarray(positions),

@@ -19,13 +19,12 @@ run the fit's errors come from the scatter of the points, which are correlated i
 time, so they are too small.
 """
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from jaxdpd import driver, ensemble, flows
-from jaxdpd.observables.fits import FitResult, fit_end_to_end_relaxation
+from jaxdpd.observables.fits import FitResult, fit_end_to_end_relaxation, jackknife
 
 
 @dataclass(frozen=True)
@@ -137,9 +136,9 @@ def stretch_and_relax(
 
 
 def replica_jackknife(fit: FitResult, times, curves) -> FitResult:
-    """`fit` with the jackknife covariance over replicas: the fit repeated on the mean
-    of all replicas but one, cov = (B − 1)/B Σ_k (θ_k − θ̄)(θ_k − θ̄)ᵀ (Efron & Stein
-    1981).  Honest for points correlated in time, since the replicas are independent.
+    """`fit` with the jackknife covariance over replicas (fits.jackknife): the fit
+    repeated on the mean of all replicas but one.  Honest for points correlated in
+    time, since the replicas are independent.
 
     Args:
         fit: the fit of the mean curve.
@@ -149,16 +148,10 @@ def replica_jackknife(fit: FitResult, times, curves) -> FitResult:
     Returns:
         `fit` with the jackknife errors and covariance.
     """
-    replicas = len(curves)
-    if replicas < 3:
-        raise ValueError(f"curves: the jackknife needs ≥ 3 replicas, got {replicas}")
-    values = []
-    for k in range(replicas):
+
+    def refit(others):
         # The weights are estimated from the same replicas, so they are left out too.
-        others = np.delete(curves, k, axis=0)
-        error = others.std(axis=0, ddof=1) / np.sqrt(replicas - 1)
-        values.append(fit_end_to_end_relaxation(times, others.mean(axis=0), error).values)
-    values = np.stack(values)
-    deviations = values - values.mean(axis=0)
-    covariance = (replicas - 1) / replicas * deviations.T @ deviations
-    return dataclasses.replace(fit, errors=np.sqrt(np.diag(covariance)), covariance=covariance)
+        error = others.std(axis=0, ddof=1) / np.sqrt(len(others))
+        return fit_end_to_end_relaxation(times, others.mean(axis=0), error)
+
+    return jackknife(fit, refit, curves)

@@ -355,9 +355,21 @@ class Run:
             | diffusion
             | summary_rows(scene, self.averages.block_means(), self.averages.n_blocks)
         )
-        summary.references = ideal_references(self.simulation.blocks, scene.solvent.kT)
+        kT = _reference_temperature(scene, summary.averages)
+        if kT is not None:
+            summary.references = ideal_references(self.simulation.blocks, kT)
         summary.series = {name: np.concatenate(parts) for name, parts in self.series.items()}
         return summary
+
+
+def _reference_temperature(scene, averages: dict) -> float | None:
+    """k_BT of the ideal-chain references: the solvent's set temperature, or for a
+    Hoogerbrugge–Koelman fluid, which sets none (its solvent.kT is only the starting
+    value), the measured mean kinetic temperature (None when it was not measured)."""
+    if scene.solvent.method != "hoogerbrugge_koelman":
+        return scene.solvent.kT
+    measured = averages.get("temperature")
+    return None if measured is None else measured[0]
 
 
 def prepare(scene, output_path=None, **options) -> Run:

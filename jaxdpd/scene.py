@@ -28,7 +28,12 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 (cubic box of side (N/ρ)^(1/3))
     [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
                 off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
-                method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width)
+                method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width);
+                weight_density n > 0 of W(r) = 3(1 − r/r_c)/(π n r_c³) (default the
+                box's N/V); initial_kT > 0 (default 0.0016): the model sets no
+                temperature (its own follows from pi0, omega, delta_pi and n), so this is
+                the temperature of the starting velocities, the Hookean bond length the
+                chains are placed with and the scale of the runaway check
                 method = "lowe_andersen": kT > 0, collision_frequency Γ ≥ 0 (0 =
                 thermostat off; Γ · integrator.dt ≤ 1), thermalization_cutoff r_T > 0
                 (default: cutoff)
@@ -61,8 +66,10 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 law = "hookean" (spring_constant) | "fraenkel" or "harmonic"
                 (spring_constant, rest_length) | "fene" (spring_constant, max_extension) |
                 "fene_log_wca" (spring_constant, max_extension, wca_epsilon = 1,
-                wca_sigma = 1); dpd, lowe_andersen, lattice_boltzmann and mpcd solvents
-                (with mpcd the chained species must be adjacent in particles.species)
+                wca_sigma = 1); every solvent method (with mpcd the chained species
+                must be adjacent in particles.species; with hoogerbrugge_koelman the
+                beads are fluid particles that also exchange spring impulses, Schlijper,
+                Hoogerbrugge & Manke, J. Rheol. 39, 567 (1995))
     [body_force] kind = "cosine": amplitude F (force per particle), waves n ≥ 1:
                 f_x = F cos(2π n y/L_y) on every particle (periodic Poiseuille flow)
                 kind = "tagged": amplitude F, species = name: f_x = F on each of the
@@ -209,7 +216,13 @@ class Flow:
 
 @dataclass(frozen=True)
 class Solvent:
-    """Solvent method and its parameters (unused ones stay at their defaults)."""
+    """Solvent method and its parameters (unused ones stay at their defaults).
+
+    `kT` is the set temperature k_BT, except for "hoogerbrugge_koelman", which has
+    none: there it is the scene's initial_kT (see HOOGERBRUGGE_KOELMAN_KT), the
+    temperature the velocities start at and chains are placed for.  `weight_density`
+    is the n of the Hoogerbrugge–Koelman weight function, None for the box's N/V.
+    """
 
     method: str
     kT: float = 1.0
@@ -218,6 +231,7 @@ class Solvent:
     pi0: float = 1.0 / 3.0
     omega: float = 4.0 / 3.0
     delta_pi: float = 1.0 / 3.0
+    weight_density: float | None = None
     collision_frequency: float = 0.0
     thermalization_cutoff: float | None = None
     grid_spacing: float = 1.0
@@ -474,14 +488,7 @@ class Scene:
         _check_collision_probability(solvent, integrator)
         if solvent.method == "lattice_boltzmann":
             _check_lattice(solvent, lengths, integrator)
-        # Springs must stay shorter than half the box for their minimum image to be
-        # unique: half the shortest edge, or half the thinnest Kraynik–Reinelt cell.
-        spring_room = (
-            (min(heights), "the thinnest Kraynik–Reinelt cell", "thesis §3.4.3")
-            if box_kind == "kraynik_reinelt"
-            else (min(lengths), "the shortest box edge", "thesis §3.2.3")
-        )
-        polymers = _read_polymers(polymer_entries, particles.species, solvent, spring_room)
+        polymers = _read_polymers(polymer_entries, particles.species)
         if solvent.method == "mpcd":
             _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
@@ -501,6 +508,21 @@ class Scene:
                 "list); remove them"
             )
         _check_spring_reach(spring_repulsion, output, neighbors, heights)
+        # Springs must stay shorter than half the box where they are read by minimum
+        # image: in a flowing box (its image counters give no unwrapped coordinates)
+        # and by the spring-pair list.  Half the shortest edge, or half the thinnest
+        # Kraynik–Reinelt cell.  A periodic box at rest unwraps them by image counters.
+        if (
+            box_kind != "periodic"
+            or spring_repulsion is not None
+            or ("spring_pairs" in output.observables)
+        ):
+            spring_room = (
+                (min(heights), "the thinnest Kraynik–Reinelt cell", "thesis §3.4.3")
+                if box_kind == "kraynik_reinelt"
+                else (min(lengths), "the shortest box edge", "thesis §3.2.3")
+            )
+            _check_spring_room(polymers, spring_room)
         if _kind(flow) == "planar_elongation" and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
@@ -677,16 +699,28 @@ def _solvent_dict(solvent: Solvent) -> dict:
         if solvent.thermalization_cutoff is not None:
             data["thermalization_cutoff"] = solvent.thermalization_cutoff
         return data
-    return {
+    data = {
         "method": solvent.method,
         "pi0": solvent.pi0,
         "omega": solvent.omega,
         "delta_pi": solvent.delta_pi,
+        "initial_kT": solvent.kT,
     }
+    if solvent.weight_density is not None:
+        data["weight_density"] = solvent.weight_density
+    return data
 
 
 MPCD_FIELDS = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
-HOOGERBRUGGE_KOELMAN_FIELDS = ("pi0", "omega", "delta_pi")
+HOOGERBRUGGE_KOELMAN_FIELDS = ("pi0", "omega", "delta_pi", "weight_density", "initial_kT")
+# Default initial_kT of a Hoogerbrugge–Koelman scene: the kinetic temperature its
+# default fluid reaches by itself (Π0 = 1/3, ω = 4/3, Δ = 1/3, n = 3, δt = 1:
+# 0.00161 ± 0.000002, benchmarks/accuracy_cost.py, README accuracy table).  Starting
+# there instead of at 1 matters for chains: a Hookean spring placed for k_BT = 1
+# (√(3/K) ≈ 22 r_c at K = 0.006) or kicked by beads 600 times too hot tears far
+# past the box before the fluid's friction (≈ ω Σ_j W_ij ≈ 4/3 per collision) cools
+# it.  Other parameter sets reach other temperatures: measure it and set initial_kT.
+HOOGERBRUGGE_KOELMAN_KT = 0.0016
 DPD_FIELDS = ("gamma", "sigma", "noise")
 
 
@@ -758,12 +792,19 @@ def _read_solvent(section) -> Solvent:
         noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
         return Solvent(method, kT=kT, gamma=gamma, noise=noise)
     if "kT" in section:
-        raise ValueError(f"solvent: ['kT'] belongs to methods 'dpd' and 'mpcd', not {method!r}")
+        raise ValueError(
+            f"solvent: ['kT'] belongs to the methods that set a temperature, not {method!r}, "
+            "whose temperature follows from pi0, omega, delta_pi and the density; give "
+            "solvent.initial_kT for the starting velocities and chain placement"
+        )
+    positive = {"minimum": 0, "exclusive_minimum": True}
     return Solvent(
         method,
+        kT=read_number(section, "initial_kT", "solvent", HOOGERBRUGGE_KOELMAN_KT, **positive),
         pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
         omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
         delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
+        weight_density=read_number(section, "weight_density", "solvent", None, **positive),
     )
 
 
@@ -1190,14 +1231,7 @@ def _polymer_entries(entries) -> list:
     return entries
 
 
-def _read_polymers(
-    entries: list, species, solvent: Solvent, spring_room: tuple[float, str, str]
-) -> tuple[Polymer, ...]:
-    if entries and solvent.method not in ("dpd", "lowe_andersen", "lattice_boltzmann", "mpcd"):
-        raise ValueError(
-            "polymers: bead-spring chains need solvent.method = 'dpd', 'lowe_andersen', "
-            f"'lattice_boltzmann' or 'mpcd' (got {solvent.method!r})"
-        )
+def _read_polymers(entries: list, species) -> tuple[Polymer, ...]:
     counts = {s.name: s.count for s in species}
     polymers, used = [], set()
     for k, entry in enumerate(entries):
@@ -1217,14 +1251,13 @@ def _read_polymers(
                 f"chains of {path}.beads = {beads}; give a count that is a positive multiple "
                 f"of {beads}"
             )
-        bond = _read_bond(entry.get("bond"), f"{path}.bond", spring_room)
+        bond = _read_bond(entry.get("bond"), f"{path}.bond")
         polymers.append(Polymer(name, beads, tuple(bond.items())))
     return tuple(polymers)
 
 
-def _read_bond(section, path: str, spring_room: tuple[float, str, str]) -> dict:
-    """The bond table; `spring_room` is (twice the longest spring the box allows,
-    what that length is, its reference)."""
+def _read_bond(section, path: str) -> dict:
+    """The bond table."""
     if section is None:
         raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
     check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
@@ -1238,13 +1271,6 @@ def _read_bond(section, path: str, spring_room: tuple[float, str, str]) -> dict:
         strictly_positive = key != "rest_length" and key != "wca_epsilon"
         bond[key] = read_number(
             section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
-        )
-    room, room_name, reference = spring_room
-    if "max_extension" in bond and not bond["max_extension"] < room / 2:
-        raise ValueError(
-            f"{path}.max_extension = {bond['max_extension']}: a spring must stay shorter "
-            f"than half {room_name} ({room / 2:.4g}; {reference}); "
-            "enlarge the box or shorten the spring"
         )
     if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
         raise ValueError(
@@ -1424,6 +1450,26 @@ def _read_spring_repulsion(section, polymers, cutoff: float) -> SpringRepulsion 
     if not floor < reach:
         raise ValueError(f"{path}.distance_floor = {floor}: must be below {path}.range = {reach}")
     return SpringRepulsion(law, parameters, reach, floor)
+
+
+def _check_spring_room(polymers, spring_room: tuple[float, str, str]) -> None:
+    """Refuse a finitely extensible spring that may grow past half the box.
+
+    Args:
+        polymers: the scene's Polymers.
+        spring_room: (twice the longest spring the box allows, what that length is,
+            its reference).
+    """
+    room, room_name, reference = spring_room
+    for k, polymer in enumerate(polymers):
+        extension = polymer.bond_parameters.get("max_extension")
+        if extension is not None and not extension < room / 2:
+            raise ValueError(
+                f"polymers[{k}].bond.max_extension = {extension}: a spring must stay "
+                f"shorter than half {room_name} ({room / 2:.4g}; {reference}) where it "
+                "is read by minimum image (a flowing box, spring_repulsion, the "
+                "'spring_pairs' observable); enlarge the box or shorten the spring"
+            )
 
 
 def _check_spring_reach(spring_repulsion, output: Output, neighbors: Neighbors, heights):

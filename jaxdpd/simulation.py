@@ -143,12 +143,13 @@ def pair_terms(scene: Scene, dtype) -> list:
     if solvent.method == "hoogerbrugge_koelman":
         terms.append(
             hoogerbrugge_koelman_term(
-                scene.particles.density,
+                solvent.weight_density or scene.particles.density,
                 scene.cutoff,
                 solvent.pi0,
                 solvent.omega,
                 solvent.delta_pi,
                 1.0,
+                scene.integrator.dt,
                 dtype,
             )
         )
@@ -258,7 +259,12 @@ def force_kernel(
         for block in blocks:
             law = block.law.with_parameters(state.parameters["bond"][block.species])
             bonded = chain_bond_forces(
-                bound_box, block.take(positions), block.take(state.image), law, with_virial
+                bound_box,
+                block.take(positions),
+                block.take(state.image),
+                law,
+                with_virial,
+                half_box_limit=spring_search is not None,
             )
             vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
             if with_virial:
@@ -368,7 +374,9 @@ def build(scene: Scene) -> Simulation:
 
     fluid = None
     if scene.solvent.method == "hoogerbrugge_koelman":
-        advance = collide_and_stream(box, scene.integrator.dt, interactions, 1.0, dtype)
+        advance = collide_and_stream(
+            box, scene.integrator.dt, interactions, scene.solvent.kT, dtype
+        )
     elif scene.solvent.method == "mpcd":
         advance = mpcd_step(scene, box, interactions, masses, (first, stop), with_virial, dtype)
     elif bath_cutoff is not None:
@@ -442,11 +450,19 @@ def build(scene: Scene) -> Simulation:
         bound_box = box.bind(state.box_state)
         if "conformation" in observables:
             samples.update(
-                conformation_samples(bound_box, state.positions, blocks, state.parameters)
+                conformation_samples(
+                    bound_box, state.positions, blocks, state.parameters, state.image
+                )
             )
             for block, strength in spring_pair_strengths:
                 samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
-                    bound_box, state.positions, block, strength, scene.cutoff, scene.volume
+                    bound_box,
+                    state.positions,
+                    block,
+                    strength,
+                    scene.cutoff,
+                    scene.volume,
+                    state.image,
                 )
         if "drag" in observables:
             samples.update(relative_velocity_samples(state.velocities, tagged_range))
@@ -485,16 +501,30 @@ def build(scene: Scene) -> Simulation:
         return state, samples
 
     def init_observers(state):
-        """The state with empty on-device accumulators (e.g. after equilibration)."""
+        """The state with empty on-device accumulators (e.g. after equilibration).
+
+        `state` is one replica (positions (N, 3)) or a batch (B, N, 3) from
+        jaxdpd.ensemble; a batch gets B copies of one replica's empty accumulators
+        (they depend only on the shapes), stacked on a leading axis.
+        """
         if "dynamics" not in observables:
             return state
+        batch_shape = state.positions.shape[:-2]
+        if len(batch_shape) > 1:
+            raise ValueError(
+                f"init_observers: state.positions must be (N, 3) or (B, N, 3), "
+                f"got shape {state.positions.shape}"
+            )
+        positions, image, box_state = state.positions, state.image, state.box_state
+        if batch_shape:
+            positions, image = positions[0], image[0]
+            box_state = jax.tree.map(lambda leaf: leaf[0], box_state)
+        observers = init_chain_correlators(
+            box.bind(box_state), positions, image, blocks, scene.output.correlator_levels
+        )
         return state.set(
-            observers=init_chain_correlators(
-                box.bind(state.box_state),
-                state.positions,
-                state.image,
-                blocks,
-                scene.output.correlator_levels,
+            observers=jax.tree.map(
+                lambda leaf: jnp.broadcast_to(leaf, batch_shape + leaf.shape), observers
             )
         )
 

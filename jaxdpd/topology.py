@@ -65,20 +65,29 @@ def chain_blocks(scene) -> tuple[ChainBlock, ...]:
     return tuple(sorted(blocks, key=lambda block: block.first))
 
 
-def chain_coordinates(box, positions, block: ChainBlock):
+def chain_coordinates(box, positions, block: ChainBlock, image=None):
     """Bead coordinates of each chain in one piece (thesis §3.2.4, eq. 3.6).
 
     The first bead keeps its wrapped position; every further bead is placed by the
-    minimum-image spring vectors (thesis eq. 3.4), so a chain longer than the box
-    is reconstructed as it lies in the infinite periodic bulk.
+    spring vectors: with `image`, those of the box's `spring_vectors` (unwrapped
+    coordinates in a periodic box at rest, exact at any spring length), else the
+    minimum-image ones (thesis eq. 3.4), right while springs are shorter than half
+    the box.  A chain longer than the box is reconstructed as it lies in the
+    infinite periodic bulk.
 
     Args:
-        box: the periodic box.
+        box: the (bound) box.
         positions: (N, 3) wrapped positions.
         block: the chains.
+        image: (N, 3) int image counters, or None.
     Returns:
-        (C, M, 3) unwrapped chain coordinates.
+        (C, M, 3) chain coordinates.
     """
     beads = block.take(positions)
-    springs = box.minimum_image_vectors(beads[:, 1:] - beads[:, :-1])
+    separation = beads[:, 1:] - beads[:, :-1]
+    if image is None:
+        springs = box.minimum_image_vectors(separation)
+    else:
+        counters = block.take(image)
+        springs, _ = box.spring_vectors(separation, counters[:, 1:] - counters[:, :-1])
     return jnp.concatenate([beads[:, :1], beads[:, :1] + jnp.cumsum(springs, axis=1)], axis=1)

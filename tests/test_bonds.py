@@ -11,7 +11,8 @@ import pytest
 
 import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd import bonds
-from jaxdpd.boxes import PeriodicBox
+from jaxdpd.boxes import PeriodicBox, make_box
+from jaxdpd.topology import ChainBlock, chain_coordinates
 
 LAWS = {
     "hookean": bonds.hookean(2.0, kT=1.0),
@@ -81,18 +82,46 @@ def test_fene_past_maximum_extension_is_flagged_and_finite():
     assert np.all(np.isfinite(result.forces))
 
 
-def test_spring_longer_than_half_box_is_flagged():
-    """Image counters say the beads are 7 apart along x in a box of 12; the minimum
-    image (5 the other way) would silently flip the spring."""
+def test_spring_longer_than_half_box_follows_the_image_counters():
+    """Beads 7 apart along x in a box of 12 (thesis §3.2.4: unwrapped coordinates
+    r + n L): the periodic box at rest takes the spring from the image counters, so
+    the Hookean force is H Q = 2 × 7 toward the partner, not the minimum image's 5 the
+    other way, and nothing is ambiguous.  Where something reads springs by minimum
+    image (`half_box_limit`) it is flagged; a Lees–Edwards box, which cannot unwrap,
+    flags a spring as it grows past 0.45 of an edge (5.6 of 12)."""
     positions = jnp.asarray([[[1.0, 1.0, 1.0], [8.0, 1.0, 1.0]]])
     image = jnp.zeros((1, 2, 3), jnp.int32)
     result = bonds.chain_bond_forces(BOX, positions, image, LAWS["hookean"], False)
-    assert bool(result.past_half_box)
+    assert not bool(result.past_half_box)
+    np.testing.assert_allclose(result.forces[0, 0], [14.0, 0, 0])
+    np.testing.assert_allclose(result.forces[0, 1], [-14.0, 0, 0])
+    limited = bonds.chain_bond_forces(BOX, positions, image, LAWS["hookean"], False, True)
+    assert bool(limited.past_half_box)
+    lees_edwards = make_box("lees_edwards", BOX.lengths)
+    sheared = lees_edwards.bind(lees_edwards.initial_state(jnp.float64))
+    growing = jnp.asarray([[[1.0, 1.0, 1.0], [6.6, 1.0, 1.0]]])
+    assert bool(
+        bonds.chain_bond_forces(sheared, growing, image, LAWS["hookean"], False).past_half_box
+    )
     crossing = jnp.asarray([[[11.5, 1.0, 1.0], [0.5, 1.0, 1.0]]])  # 1 apart across x = L
     crossing_image = jnp.asarray([[[0, 0, 0], [1, 0, 0]]], jnp.int32)
-    result = bonds.chain_bond_forces(BOX, crossing, crossing_image, LAWS["hookean"], False)
+    result = bonds.chain_bond_forces(BOX, crossing, crossing_image, LAWS["hookean"], False, True)
     assert not bool(result.past_half_box)
     np.testing.assert_allclose(result.forces[0, 0], [2.0, 0, 0])
+
+
+def test_chain_coordinates_follow_the_image_counters():
+    """A trimer whose springs reach 1.3 along x in a box of edge 2.2 (a chain of a
+    few beads in a box of a few r_c, as in Schlijper et al. 1995): with image
+    counters its coordinates are the unwrapped ones; the minimum image folds them."""
+    box = PeriodicBox((2.2, 2.2, 2.2))
+    unwrapped = np.asarray([[0.3, 1.0, 1.0], [1.6, 1.3, 1.0], [2.9, 1.6, 1.0]]) + [2.0, 0, 0]
+    image = np.floor(unwrapped / 2.2).astype(np.int32)
+    block = ChainBlock("P", 0, 1, 3, LAWS["hookean"])
+    chains = chain_coordinates(box, jnp.asarray(unwrapped - 2.2 * image), block, jnp.asarray(image))
+    np.testing.assert_allclose(np.diff(chains[0], axis=0), np.diff(unwrapped, axis=0), atol=1e-12)
+    folded = chain_coordinates(box, jnp.asarray(unwrapped - 2.2 * image), block)
+    assert not np.allclose(np.diff(folded[0], axis=0), np.diff(unwrapped, axis=0))
 
 
 def test_placement_lengths():

@@ -71,7 +71,7 @@ def test_polymer_runs_store_bonds_and_run_averages():
         np.testing.assert_array_equal(bonds[:3], [[0, 1], [2, 3], [4, 5]])
         assert handle["averages/rdf/g"].shape == (scene.output.rdf_bins,)
         assert handle["averages/rdf"].attrs["samples"] == scene.run.steps // scene.run.chunk
-        for name in ("g1", "g2", "g3", "end_to_end_acf"):
+        for name in ("g1", "g2", "g3", "end_to_end_acf", "positional_acf"):
             correlation = handle[f"averages/dumbbell/{name}"]
             assert correlation["lag_time"].shape == correlation["value"].shape
     assert "dumbbell/D_CM" in reference.summary.averages

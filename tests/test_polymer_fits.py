@@ -140,3 +140,102 @@ def test_bad_arguments():
         fits.fit_end_to_end_relaxation([0.0, 1.0, 2.0], [3.0, 2.0, 1.0])
     with pytest.raises(ValueError, match="n_beads"):
         fits.fit_rouse_zimm([1.0, 2.0, 3.0], [0.9, 0.8, 0.7], n_beads=1)
+
+
+def three_bead_zimm(t, tau_1, h_star):
+    """Exact C(t) of the preaveraged Zimm model for N = 3, derived by hand: with
+    D = [[1, a, b], [a, 1, a], [b, a, 1]] (a = sqrt(2) h*, b = h*) and the Rouse matrix
+    A, the antisymmetric mode (1, 0, -1) is an eigenvector of D.A with eigenvalue
+    1 - h*, and (1, -2, 1) is one modulo the centre of mass (which C ignores) with
+    eigenvalue 3 - 4 sqrt(2) h* + h*.  The static weights sin^-2(p pi/6) normalised
+    are 3/4 and 1/4."""
+    ratio = (3 - 4 * np.sqrt(2) * h_star + h_star) / (1 - h_star)
+    return 0.75 * np.exp(-t / tau_1) + 0.25 * np.exp(-ratio * t / tau_1)
+
+
+def rouse_chain(t, n_beads, tau_1):
+    """Exact C(t) of the discrete Rouse chain: weights sin^-2(p pi/2N) normalised, rates
+    sin^2(p pi/2N)/sin^2(pi/2N) / tau_1 (Doi & Edwards 1986, sec. 4.1)."""
+    sin2 = np.sin(np.arange(1, n_beads) * np.pi / (2 * n_beads)) ** 2
+    weights = (1 / sin2) / np.sum(1 / sin2)
+    return np.exp(-np.outer(t, sin2 / sin2[0]) / tau_1) @ weights
+
+
+def test_rouse_zimm_fit_of_exact_curves_inside_and_at_the_bounds_and_a_dumbbell():
+    """Exact curves (no noise) give back their parameters to the optimiser's
+    convergence (relative 1e-6): N = 3 Zimm with h* = 0.15; a 12-bead Rouse chain, whose
+    h* = 0 is the lower bound; N = 3 with h* = 0.3, outside the default bounds
+    [0, 0.262], lands on 0.262 and says so, and is recovered with wider bounds; a
+    dumbbell, C = exp(-t/tau), gives tau alone with h* named undefined."""
+    t = np.geomspace(0.5, 200, 40)
+    inside = fits.fit_rouse_zimm(t, three_bead_zimm(t, 50.0, 0.15), 3)
+    assert inside["longest_relaxation_time"] == pytest.approx(50.0, rel=1e-6)
+    assert inside["h_star"] == pytest.approx(0.15, rel=1e-6)
+    assert inside.notes == ()
+
+    rouse = fits.fit_rouse_zimm(t, rouse_chain(t, 12, 40.0), 12)
+    assert rouse["longest_relaxation_time"] == pytest.approx(40.0, rel=1e-6)
+    assert rouse["h_star"] == pytest.approx(0.0, abs=1e-9) and "lower bound" in rouse.notes[0]
+
+    beyond = three_bead_zimm(t, 50.0, 0.3)
+    capped = fits.fit_rouse_zimm(t, beyond, 3)
+    assert capped["h_star"] == fits.H_STAR_PHYSICAL_RANGE[1] == 0.262
+    assert "upper bound" in capped.notes[0]
+    wide = fits.fit_rouse_zimm(t, beyond, 3, h_star_bounds=(0.0, 0.4))
+    assert wide["h_star"] == pytest.approx(0.3, rel=1e-6)
+
+    dumbbell = fits.fit_rouse_zimm(t, np.exp(-t / 30.0), 2)
+    assert dumbbell.names == ("longest_relaxation_time",)
+    assert dumbbell["longest_relaxation_time"] == pytest.approx(30.0, rel=1e-9)
+    with pytest.raises(KeyError, match="undefined for a dumbbell"):
+        dumbbell["h_star"]
+
+
+def test_rouse_zimm_fit_names_degenerate_and_bad_input():
+    t = np.geomspace(0.5, 200, 10)
+    with pytest.raises(fits.DegenerateFitError, match="does not decay"):
+        fits.fit_rouse_zimm(t, np.ones_like(t), 5)
+    # Only t = 0 and a time long past every decay: h* changes nothing (was LinAlgError).
+    with pytest.raises(fits.DegenerateFitError, match="h_star"):
+        fits.fit_rouse_zimm([0.0, 0.0, 1e5], [1.0, 1.0, 0.0], 5)
+    assert issubclass(fits.DegenerateFitError, ValueError)
+    curve = three_bead_zimm(t, 50.0, 0.1)
+    with pytest.raises(ValueError, match="h_star_bounds"):
+        fits.fit_rouse_zimm(t, curve, 3, h_star_bounds=(0.0, 0.6))
+    with pytest.raises(ValueError, match="h_star_start"):
+        fits.fit_rouse_zimm(t, curve, 3, h_star_start=0.3)
+    with pytest.raises(ValueError, match="at least 3 blocks"):
+        fits.fit_rouse_zimm(t, np.stack([curve, curve]), 3)
+    with pytest.raises(ValueError, match="error must be None"):
+        fits.fit_rouse_zimm(t, np.stack([curve] * 3), 3, error=0.01)
+
+
+def test_rouse_zimm_jackknife_errors_over_blocks_are_calibrated():
+    """B blocks, each the exact N = 3 curve (tau_1 = 50, h* = 0.15) plus independent
+    Gaussian noise 0.01 per point.  Over R repeats the mean jackknife error matches the
+    scatter of the estimates: the scatter is uncertain by 1/sqrt(2(R - 1)) (11 per cent
+    for R = 40, 16 per cent for R = 20) and the mean error by about
+    1/sqrt(2(B - 1) R) (4 and 3 per cent), so factors 1.4 (B = 8, R = 40) and 1.5
+    (B = 32, R = 20) are allowed, 3 combined standard deviations.  More blocks of the
+    same noise give smaller errors: 1/sqrt(B) would halve them from 8 to 32 blocks;
+    the jackknife variance is biased upwards for few blocks (Efron & Stein, Ann. Stat.
+    9, 586 (1981)), so only a fall below 0.6 of the B = 8 error is required."""
+    t = np.geomspace(0.5, 200, 30)
+    clean = three_bead_zimm(t, 50.0, 0.15)
+    rng = np.random.default_rng(3)
+    results = {}
+    for blocks, repeats in ((8, 40), (32, 20)):
+        results[blocks] = [
+            fits.fit_rouse_zimm(t, clean + 0.01 * rng.normal(size=(blocks, t.size)), 3)
+            for _ in range(repeats)
+        ]
+    assert "jackknife over 8 blocks" in results[8][0].notes[-1]
+    for name, value in (("longest_relaxation_time", 50.0), ("h_star", 0.15)):
+        mean_errors = {}
+        for blocks, allowed in ((8, 1.4), (32, 1.5)):
+            estimates = [r[name] for r in results[blocks]]
+            errors = [r.error(name) for r in results[blocks]]
+            worst, ratio = calibration(estimates, errors, value)
+            assert worst < 4 and 1 / allowed < ratio < allowed, (name, blocks, worst, ratio)
+            mean_errors[blocks] = np.mean(errors)
+        assert mean_errors[32] < 0.6 * mean_errors[8], (name, mean_errors)

@@ -44,9 +44,12 @@ INVALID = [
         ["rest_length", "not parameters"],
     ),
     (
-        {"polymers": [{"species": "P", "beads": 2, "bond": {**FENE, "max_extension": 5.0}}]},
+        {
+            "polymers": [{"species": "P", "beads": 2, "bond": {**FENE, "max_extension": 5.0}}],
+            "spring_repulsion": {"law": "exponential"},
+        },
         ValueError,
-        ["max_extension", "half the shortest box edge"],
+        ["max_extension", "half the shortest box edge", "spring_repulsion"],
     ),
     (
         {"polymers": [{"species": "P", "beads": 2, "bond": {**FENE, "spring_constant": 0}}]},
@@ -61,9 +64,19 @@ INVALID = [
         ["151", "multiple of 2"],
     ),
     (
-        {"solvent": {"method": "hoogerbrugge_koelman"}, "pair": None},
+        {"solvent": {"method": "hoogerbrugge_koelman", "weight_density": 0.0}, "pair": None},
         ValueError,
-        ["polymers", "dpd"],
+        ["solvent.weight_density", "> 0"],
+    ),
+    (
+        {"solvent": {"method": "hoogerbrugge_koelman", "initial_kT": -1e-3}, "pair": None},
+        ValueError,
+        ["solvent.initial_kT", "> 0"],
+    ),
+    (
+        {"solvent": {"method": "hoogerbrugge_koelman", "kT": 1.0}, "pair": None},
+        ValueError,
+        ["kT", "initial_kT"],
     ),
 ]
 

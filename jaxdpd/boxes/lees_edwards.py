@@ -223,6 +223,20 @@ class BoundLeesEdwards:
         components = self.separation(tuple(separations[..., axis] for axis in range(3)))
         return jnp.stack(components, axis=-1)
 
+    def spring_vectors(self, separation, image_difference):
+        """Minimum-image spring vectors (thesis eq. 3.4) and whether any is ambiguous
+        (`springs_past_half_box`): image counters do not give unwrapped coordinates
+        in this box.
+
+        Args:
+            separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
+            image_difference: (..., 3) int image counters n_{k+1} − n_k (unused).
+        Returns:
+            (springs (..., 3), bool scalar).
+        """
+        springs = self.minimum_image_vectors(separation)
+        return springs, self.springs_past_half_box(separation, springs, image_difference)
+
     def springs_past_half_box(self, separation, springs, image_difference):
         """Whether some spring has a component beyond SPRING_LIMIT of the box edge.
 

@@ -15,6 +15,8 @@ binds to itself, so no flow arithmetic is traced for it.  The unbound box's
 The interface (bound box):
     separation(components)       minimum-image (dx, dy, dz) of r_i − r_j
     minimum_image_vectors(v)     the same for vectors of shape (..., 3)
+    spring_vectors(sep, dn)      spring vectors from raw separations and image-counter
+                                 differences, and whether any is ambiguous
     wrap(positions, image)       positions back into the primary box, image counters
     unwrap(positions, image)     r + n · (lattice vectors) (periodic and Lees–Edwards)
     frame_positions(positions)   coordinates in which the lattice is rectangular with
@@ -102,21 +104,20 @@ class PeriodicBox:
         lengths = self.lengths_array(separations.dtype)
         return separations - lengths * jnp.round(separations / lengths)
 
-    def springs_past_half_box(self, separation, springs, image_difference):
-        """Whether some spring is longer than half a box edge along an axis, so that
-        its minimum image is not the spring: the image counters of its beads say
-        where the partner really is.
+    def spring_vectors(self, separation, image_difference):
+        """Spring vectors r_{k+1} − r_k of unwrapped coordinates r + n L (thesis
+        §3.2.4): exact at any length, so a spring may be longer than half the box
+        (a chain of a few beads in a box of a few r_c).
 
         Args:
             separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
-            springs: (..., 3) their minimum images.
             image_difference: (..., 3) int image counters n_{k+1} − n_k.
         Returns:
-            bool scalar.
+            (springs (..., 3), ambiguous): never ambiguous here (False).
         """
         lengths = self.lengths_array(separation.dtype)
-        by_image = separation + image_difference.astype(separation.dtype) * lengths
-        return jnp.any(jnp.abs(by_image - springs) > 0.5 * lengths)
+        springs = separation + image_difference.astype(separation.dtype) * lengths
+        return springs, jnp.asarray(False)
 
     def wrap(self, positions, image):
         """Wrap positions into [0, L) and count the boundary crossings.

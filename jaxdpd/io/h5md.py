@@ -21,7 +21,7 @@ Layout written:
                                 attr warning: a failed sanity check of its mean
                                 (temperature off the set k_BT)
     /averages/rdf/{r, g}        g(r) averaged over the run (time-independent)
-    /averages/<species>/<g1|g2|g3|end_to_end_acf>/{lag_time,value,per_element}
+    /averages/<species>/<g1|g2|g3|end_to_end_acf|positional_acf>/{lag_time,value,per_element}
                                 on-device time correlations over the production
     /checkpoint                 the whole state (jaxdpd.io.checkpoint)
 

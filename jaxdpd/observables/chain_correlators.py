@@ -10,8 +10,13 @@ with the unwrapped chain coordinates (thesis §3.2.4–3.2.5), so no trajectory 
     <species>/g3            centre-of-mass mean-square displacement
     <species>/end_to_end_acf  ⟨R_e(t0) · R_e(t0 + t)⟩, R_e = r_M − r_1 (its decay gives
                             the longest relaxation time; for dumbbells R_e = Q)
+    <species>/positional_acf  ⟨u_i(t0) · u_i(t0 + t)⟩ per bead, u_i = r_i − r_cm
+                            (autocorrelation mode); its mean over beads is
+                            ⟨R_g²⟩ at lag 0, and `positional_autocorrelation`
+                            turns it into the normalised C(t) of the Rouse–Zimm fit
 
-(definitions: :mod:`jaxdpd.observables.dynamics`).  The correlators live in
+(definitions: :mod:`jaxdpd.observables.dynamics`; units r_c², lag times in time
+units).  All work for any number of chains, one included.  The correlators live in
 `SimState.observers`, so they are checkpointed with the state and cost memory
 O(levels · 16 · beads) whatever the run length.
 
@@ -30,10 +35,14 @@ import numpy as np
 
 from jaxdpd.observables import correlator
 from jaxdpd.observables.conformation import end_to_end_vector
-from jaxdpd.observables.dynamics import diffusion_coefficient, displacement_samples
+from jaxdpd.observables.dynamics import (
+    diffusion_coefficient,
+    displacement_samples,
+    normalized_correlation,
+)
 
 MSD_SERIES = ("g1", "g2", "g3")
-SERIES = (*MSD_SERIES, "end_to_end_acf")
+SERIES = (*MSD_SERIES, "end_to_end_acf", "positional_acf")
 
 
 def _samples(box, positions, image, block) -> dict:
@@ -42,6 +51,7 @@ def _samples(box, positions, image, block) -> dict:
     chains = block.take(box.unwrap(positions, image))
     samples = displacement_samples(chains)
     samples["end_to_end_acf"] = end_to_end_vector(chains)
+    samples["positional_acf"] = samples["g2"]
     return samples
 
 
@@ -80,17 +90,28 @@ def chain_correlations(correlators: dict, sample_interval: float) -> dict:
     """Lag times and correlations per chain (or bead), summed over x, y, z (host side).
 
     Args:
-        correlators: from the state's `observers`.
+        correlators: from the state's `observers`: one replica's, or a batch's from
+            jaxdpd.ensemble (every leaf with a leading replica axis B).
         sample_interval: simulated time between samples (correlator_every · Δt).
     Returns:
         dict "<species>/<series>" → (lag times (K,), values (K, C) for g3 and
-        end_to_end_acf, (K, C, M) for g1 and g2) NumPy arrays; NaN at lags no sample
-        pair has reached yet.  Average over the chain (and bead) axes for the
-        ensemble mean; keep them for error bars (e.g. dynamics.diffusion_coefficient).
+        end_to_end_acf, (K, C, M) for g1, g2 and positional_acf) NumPy arrays; NaN
+        at lags no sample pair has reached yet.  A batch's replicas are independent
+        chains of one species, so they are merged into the chain axis, replica by
+        replica (C = B · chains per replica).  Average over the chain (and bead) axes
+        for the ensemble mean; keep them for error bars (e.g.
+        dynamics.diffusion_coefficient, positional_autocorrelation).
     """
     results = {}
     for key, state in correlators.items():
-        lags, values = correlator.result(state)
+        if state.counts.ndim == 2:
+            lags, values = correlator.result(state)
+        else:
+            levels, points = state.buffer.shape[1:3]  # (B, L, p, ...)
+            lags = correlator.lags(levels, points, state.averaging)
+            batched = jax.vmap(lambda s: correlator.result(s)[1])(state)  # (B, K, C, ...)
+            values = jnp.moveaxis(batched, 0, 1)
+            values = values.reshape(values.shape[:1] + (-1,) + values.shape[3:])
         results[key] = (lags * sample_interval, np.asarray(jax.device_get(values)).sum(axis=-1))
     return results
 
@@ -98,6 +119,32 @@ def chain_correlations(correlators: dict, sample_interval: float) -> dict:
 def sample_every(step, every: int, correlators: dict, update):
     """`update(correlators)` at steps that are multiples of `every`, else unchanged."""
     return jax.lax.cond(jnp.equal(step % every, 0), update, lambda c: c, correlators)
+
+
+def positional_autocorrelation(correlations: dict) -> dict:
+    """Normalised positional autocorrelation C(t) of each block, with its error.
+
+    C(t) = Σ_c Σ_i ⟨u_i(t0 + t) · u_i(t0)⟩ / (the same at t = 0), the quantity of
+    dynamics.positional_autocorrelation (here from the on-device correlator, so
+    exact at the level-0 lags and block-averaged beyond, see correlator) and of the
+    Rouse–Zimm model fits.rouse_zimm_correlation.
+
+    Args:
+        correlations: from `chain_correlations`.
+    Returns:
+        dict "<species>/C" → (lag times (K,), C (K,), standard error (K,): jackknife
+        over the chains, NaN for a single chain, see dynamics.normalized_correlation)
+        NumPy arrays; NaN at lags not reached yet.  For one chain per replica, fit
+        the replicas' curves together (fits.fit_rouse_zimm with a block axis) for an
+        error bar.
+    """
+    results = {}
+    for key, (lag_times, per_bead) in correlations.items():
+        species, series = key.rsplit("/", 1)
+        if series == "positional_acf":
+            correlation, error = normalized_correlation(per_bead.sum(axis=-1))
+            results[f"{species}/C"] = (lag_times, np.asarray(correlation), np.asarray(error))
+    return results
 
 
 def center_of_mass_diffusion(correlations: dict, fit_fraction: float = 0.25) -> dict:

@@ -12,7 +12,8 @@ For each chain block (species) the step records, averaged over its chains:
                                   latter is the thesis's ⟨Q²⟩/Q0² (fig. 4-10)
     <species>/end_to_end_sq       ⟨R_e²⟩, R_e = r_M − r_1         (chains of M > 2)
     <species>/end_to_end_conformation   (3, 3) ⟨R_e R_e⟩            (M > 2)
-    <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (M > 2)
+    <species>/gyration_radius_sq  ⟨R_g²⟩ = ⟨(1/M) Σ_k (r_k − r_cm)²⟩  (every M ≥ 2; a
+                                  dumbbell's is exactly ⟨Q²⟩/4)
 and, with "pressure" and a [pair] too (`spring_pair_pressure`):
     <species>/spring_pair_pressure  (3, 3) the soft repulsion between the two beads
                                   of every spring as a pressure tensor: the
@@ -36,7 +37,7 @@ from jaxdpd.pairs import soft_repulsion
 from jaxdpd.topology import chain_coordinates
 
 
-def conformation_samples(box, positions, blocks, parameters=None) -> dict:
+def conformation_samples(box, positions, blocks, parameters=None, image=None) -> dict:
     """The per-step conformation samples of every block (traced, inside the scan).
 
     Args:
@@ -45,13 +46,15 @@ def conformation_samples(box, positions, blocks, parameters=None) -> dict:
         blocks: the scene's ChainBlocks.
         parameters: the state's traced parameters (jaxdpd.parameters), whose bond
             max_extension gives the contour length; None: the scene's values.
+        image: (N, 3) image counters, or None (jaxdpd.topology.chain_coordinates:
+            with them, springs longer than half the box are measured right).
     Returns:
         name → scalar or (3, 3) tensor, names as in the module docstring.
     """
     samples = {}
     for block in blocks:
         name = block.species
-        chains = chain_coordinates(box, positions, block)
+        chains = chain_coordinates(box, positions, block, image)
         springs = bond_vectors(chains)
         samples[f"{name}/bond_length_sq"] = jnp.mean(jnp.sum(springs**2, axis=-1))
         samples[f"{name}/bond_conformation"] = conformation_tensor(springs, axis=(0, 1))
@@ -67,11 +70,11 @@ def conformation_samples(box, positions, blocks, parameters=None) -> dict:
             samples[f"{name}/end_to_end_conformation"] = conformation_tensor(
                 end_to_end_vector(chains)
             )
-            samples[f"{name}/gyration_radius_sq"] = jnp.mean(gyration_radius_squared(chains))
+        samples[f"{name}/gyration_radius_sq"] = jnp.mean(gyration_radius_squared(chains))
     return samples
 
 
-def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume: float):
+def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume: float, image=None):
     """The conservative pair force across each spring of a block, as a pressure.
 
     (1/V) Σ_springs Q ⊗ a (1 − Q/r_c) Q/|Q| for |Q| < r_c (thesis eq. 3.46 restricted
@@ -86,10 +89,11 @@ def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume:
         strength: a of the block's species with itself (energy/length).
         cutoff: r_c.
         volume: box volume.
+        image: (N, 3) image counters, or None (as in `conformation_samples`).
     Returns:
         (3, 3) tensor (units of pressure).
     """
-    springs = bond_vectors(chain_coordinates(box, positions, block)).reshape(-1, 3)
+    springs = bond_vectors(chain_coordinates(box, positions, block, image)).reshape(-1, 3)
     length = jnp.sqrt(jnp.sum(springs * springs, axis=-1))
     weight = jnp.clip(1 - length / cutoff, 0, None)
     along = soft_repulsion(weight, strength) / jnp.maximum(length, jnp.finfo(length.dtype).tiny)
@@ -102,7 +106,8 @@ def ideal_references(blocks, kT: float) -> dict:
     FENE springs: ⟨Q²⟩ = 3 Q0²/(b + 5), b = H Q0²/k_BT (thesis eq. 4.8, exact for one
     spring; for dumbbells also ⟨Q²⟩/Q0² = 3/(b + 5)); Hookean chains of M beads,
     l² = 3 k_BT/H: ⟨Q²⟩ = l², ⟨R_e²⟩ = (M − 1) l²,
-    ⟨R_g²⟩ = l² (M² − 1)/(6M) (Doi & Edwards 1986, §2.1).  Other laws have none here.
+    ⟨R_g²⟩ = l² (M² − 1)/(6M) (Doi & Edwards 1986, §2.1; l²/4 for a dumbbell).  Other
+    laws have none here.
 
     Returns:
         series name → reference value, for the series that have one.
@@ -120,7 +125,7 @@ def ideal_references(blocks, kT: float) -> dict:
             l_sq = 3 * kT / parameters["spring_constant"]
             m = block.beads
             references[f"{block.species}/bond_length_sq"] = l_sq
+            references[f"{block.species}/gyration_radius_sq"] = l_sq * (m * m - 1) / (6 * m)
             if m > 2:
                 references[f"{block.species}/end_to_end_sq"] = (m - 1) * l_sq
-                references[f"{block.species}/gyration_radius_sq"] = l_sq * (m * m - 1) / (6 * m)
     return references

@@ -4,25 +4,36 @@ The algorithm of Ramírez, Sukumaran, Vorselaars & Likhtman, J. Chem. Phys. 133,
 154103 (2010) ("Efficient on the fly calculation of time correlation functions in
 computer simulations"), written as a pure, jittable pytree state.
 
-Level 0 receives every sample.  Level ``l >= 1`` receives the means of ``m``
-consecutive values of level ``l - 1`` (``m = averaging``), i.e. block means of
-``m^l`` consecutive samples.  Each level keeps the last ``p = points_per_level``
-values in a ring buffer; a value arriving at level ``l`` is correlated with itself and
-the ``p - 1`` values before it.  Level 0 gives lags ``0 .. p-1`` exactly (every pair of
-samples at those lags, the direct estimator averaged over all time origins).  Level
-``l >= 1`` gives lags ``j m^l`` for ``j = p/m .. p-1`` (the shorter lags are already
-covered by the level below), estimated from block means; the lags are contiguous
-across levels.  ``L`` levels reach a largest lag ``(p - 1) m^(L-1)`` samples with
-memory ``O(L p)`` per element, and cost ``O(L p)`` element operations per sample.
+Level 0 receives every sample.  Level ``l >= 1`` receives one value for every ``m``
+values of level ``l - 1`` (``m = averaging``), i.e. one value per ``m^l`` samples.
+Each level keeps the last ``p = points_per_level`` values in a ring buffer; a value
+arriving at level ``l`` is correlated with itself and the ``p - 1`` values before it.
+Level 0 gives lags ``0 .. p-1`` exactly (every pair of samples at those lags, the
+direct estimator averaged over all time origins).  Level ``l >= 1`` gives lags
+``j m^l`` for ``j = p/m .. p-1`` (the shorter lags are already covered by the level
+below); the lags are contiguous across levels.  ``L`` levels reach a largest lag
+``(p - 1) m^(L-1)`` samples with memory ``O(L p)`` per element, and cost ``O(L p)``
+element operations per sample.
 
-Coarse-graining error at level ``l`` (block width ``w = m^l``): for a correlation
-``C(d)`` the block means give ``(1/w^2) sum_{a,b=0}^{w-1} C(d + b - a)``, which for
-an exponential ``C(d) = C_0 exp(-d/tau)`` and ``d >= w`` is exactly
-``C(d) sinh^2(w/2tau) / (w^2 sinh^2(1/2tau)) = C(d) [1 + (w^2 - 1)/(12 tau^2) + ...]``.
-Level ``l`` only serves lags ``d >= (p/m) w``, so the relative error at lag ``d`` is at
-most about ``(m d / p)^2 / (12 tau^2)``: with ``p/m = 8`` (Ramírez et al.'s ``p = 16,
-m = 2``) about 1 per cent at ``d = 3 tau``, where the correlation has decayed to 5 per
-cent.
+What a level passes up (its compression) depends on the mode:
+
+- ``"autocorrelation"``: the mean of the ``m`` values (Ramírez et al.), so level ``l``
+  holds block means of width ``w = m^l``.  For a correlation ``C(d)`` the block means
+  give ``(1/w^2) sum_{a,b=0}^{w-1} C(d + b - a)``, which for ``C(d) = C_0 exp(-d/tau)``
+  and ``d >= w`` is exactly ``C(d) sinh^2(w/2tau) / (w^2 sinh^2(1/2tau))
+  = C(d) [1 + (w^2 - 1)/(12 tau^2) + ...]``.  Level ``l`` only serves lags
+  ``d >= (p/m) w``, so the relative error at lag ``d`` is at most about
+  ``(m d / p)^2 / (12 tau^2)``: with ``p/m = 8`` about 1 per cent at ``d = 3 tau``,
+  where the correlation has decayed to 5 per cent.
+- ``"msd"``: the latest of the ``m`` values (a subsample), so level ``l`` holds the
+  signal itself at every ``w``-th sample and ``(A(t0 + j w) - A(t0))^2`` is an exact
+  displacement: the estimate is unbiased at every lag, from time origins ``w`` apart
+  (as many products as block means would give).  Block means are not usable here:
+  for a random walk with step variance ``s^2`` the mean displacement of two blocks
+  ``d >= w`` apart has ``E (mean_{a+j} - mean_a)^2 = s^2 [d - (w^2 - 1)/(3 w)]``, i.e.
+  2-4 per cent low at lags ``8 w .. 15 w``, and a bounded signal's plateau is
+  lowered by the blocks' internal variance.  ESPResSo's correlator makes the same
+  choice for MSDs (``compress1="discard1"`` in its ``samples/diffusion_coefficient.py``).
 
 Two modes, elementwise over the sample's shape:
 
@@ -68,7 +79,7 @@ class MultipleTauState:
       buffer: ``(L, p, *shape)`` ring buffers of the last ``p`` values of each level.
       inserted: ``(L,)`` int32, values inserted into each level so far.
       accumulator: ``(L, *shape)`` running sum of values waiting to be averaged into
-        the next level.
+        the next level (autocorrelation mode; stays zero in msd mode).
       accumulated: ``(L,)`` int32, how many values ``accumulator`` holds (< averaging).
       correlation: ``(L, p, *shape)`` sums of the correlated products per level and
         buffer distance ``j``.
@@ -158,8 +169,9 @@ def update(state: MultipleTauState, sample) -> MultipleTauState:
     """Add one sample (shape ``state.sample_shape``); pure and jittable.
 
     The new value is pushed through the levels: every level it reaches correlates it
-    with its buffer, and every ``averaging``-th value of a level sends the mean of the
-    last ``averaging`` values up.  Levels the value does not reach are left unchanged
+    with its buffer, and every ``averaging``-th value of a level sends a value up: the
+    mean of the last ``averaging`` values (autocorrelation mode) or the value itself
+    (msd mode; the module docstring says why).  Levels the value does not reach are left unchanged
     (masked, so the cost per sample is the same at every step).
     """
     sample = jnp.asarray(sample, state.buffer.dtype)
@@ -186,9 +198,13 @@ def update(state: MultipleTauState, sample) -> MultipleTauState:
         valid = active & (distances < n_inserted) & (distances >= first_distance)
         correlation = correlation + jnp.where(_broadcast_mask(valid, products.ndim), products, 0)
         counts = counts + valid.astype(jnp.int32)
-        total = total + jnp.where(active, value, 0)
         n_accumulated = n_accumulated + active.astype(jnp.int32)
         passes_up = n_accumulated == m
+        if state.mode == "autocorrelation":
+            total = total + jnp.where(active, value, 0)
+            passed = total / m
+        else:
+            passed = value
         new_level = (
             buffer,
             n_inserted,
@@ -197,7 +213,7 @@ def update(state: MultipleTauState, sample) -> MultipleTauState:
             correlation,
             counts,
         )
-        return (total / m, passes_up), new_level
+        return (passed, passes_up), new_level
 
     levels = (
         state.buffer,

@@ -28,8 +28,11 @@ Two ways to compute them:
   ``center_of_mass_msd``, ``positional_autocorrelation``, ``center_of_mass_vacf``,
   exact for every lag ``0 .. T-1`` by FFT (``O(T log T)``), averaged over all origins;
 - on device while the simulation runs: feed :func:`displacement_samples` to the
-  multiple-tau correlator (:mod:`jaxdpd.observables.correlator`, mode ``"msd"``) and
-  reduce its result with :func:`average_over_elements`.
+  multiple-tau correlator (:mod:`jaxdpd.observables.correlator`, mode ``"msd"`` for
+  g1, g2, g3, mode ``"autocorrelation"`` of the ``"g2"`` sample ``u_i`` for ``C(t)``)
+  and reduce its result with :func:`average_over_elements`, or
+  :func:`normalized_correlation` for ``C(t)`` (the "dynamics" observable,
+  :mod:`jaxdpd.observables.chain_correlators`, does this during a run).
 
 All functions are pure ``jax.numpy`` (jittable) except :func:`diffusion_coefficient`,
 an analysis step returning Python floats.
@@ -51,6 +54,7 @@ __all__ = [
     "center_of_mass_vacf",
     "diffusion_coefficient",
     "displacement_samples",
+    "normalized_correlation",
     "positional_autocorrelation",
     "relative_bead_msd",
     "time_autocorrelation",
@@ -197,30 +201,51 @@ def positional_autocorrelation(trajectory):
     """Normalised positional autocorrelation ``C(t)`` (see module docstring) with errors.
 
     ``C(k) = sum_c S_c(k) / sum_c S_c(0)`` with ``S_c(k) = <sum_i u_i(t0+k) . u_i(t0)>_t0``
-    for chain ``c`` (a ratio of averages, so no per-chain normalisation bias).  The
-    standard error is the jackknife over chains (leave one chain out; Efron & Stein,
-    Ann. Stat. 9, 586 (1981)), treating chains as independent samples.
+    for chain ``c`` (a ratio of averages, so no per-chain normalisation bias), and its
+    jackknife error over the chains (:func:`normalized_correlation`).
 
     Args:
-      trajectory: ``(T, n_chains, n_beads, 3)`` unwrapped positions, equal spacing;
-        at least 2 chains.
+      trajectory: ``(T, n_chains, n_beads, 3)`` unwrapped positions, equal spacing; one
+        chain or more.
 
     Returns:
-      ``(C, C_error)``: two ``(T,)`` arrays; ``C[0] = 1`` and ``C_error[0] = 0``.
+      ``(C, C_error)``: two ``(T,)`` arrays; ``C[0] = 1`` and ``C_error[0] = 0``;
+      ``C_error`` is NaN for a single chain (no samples to estimate it from).
     """
     x = _trajectory(trajectory)
-    if x.shape[1] < 2:
-        raise ValueError(f"trajectory needs at least 2 chains for an error, got {x.shape[1]}")
-    return _positional_autocorrelation(x)
+    relative = x - x.mean(axis=-2, keepdims=True)
+    return normalized_correlation(_autocorrelation(relative).sum(axis=(-2, -1)))
+
+
+def normalized_correlation(per_chain):
+    """``C(k) = sum_c S_c(k) / sum_c S_c(0)`` and its jackknife error over the chains.
+
+    The error is the leave-one-chain-out jackknife (Efron & Stein, Ann. Stat. 9, 586
+    (1981)): with ``C_(c)`` the ratio without chain ``c``,
+    ``sigma^2 = ((n - 1)/n) sum_c (C_(c) - mean_c C_(c))^2``, treating the chains as
+    independent samples.
+
+    Args:
+      per_chain: ``(K, n_chains)`` unnormalised correlations ``S_c(k)`` of each chain
+        (e.g. ``sum_i <u_i(t0 + k) . u_i(t0)>``, units r_c^2), lag ``k`` on axis 0 with
+        lag 0 first; NaN where a lag has not been reached (on-device correlators).
+
+    Returns:
+      ``(C, C_error)``: two ``(K,)`` arrays; ``C_error`` is NaN for a single chain.
+    """
+    s = floating_array(per_chain, "per_chain", min_ndim=2)
+    if s.ndim != 2:
+        raise ValueError(f"per_chain must have shape (K, n_chains), got {s.shape}")
+    return _normalized_correlation(s)
 
 
 @jax.jit
-def _positional_autocorrelation(x):
-    n_chains = x.shape[1]
-    relative = x - x.mean(axis=-2, keepdims=True)
-    per_chain = _autocorrelation(relative).sum(axis=(-2, -1))  # (T, n_chains)
+def _normalized_correlation(per_chain):
+    n_chains = per_chain.shape[1]
     total = per_chain.sum(axis=1)
     correlation = total / total[0]
+    if n_chains < 2:
+        return correlation, jnp.full_like(correlation, jnp.nan)
     left_out = (total[:, None] - per_chain) / (total[0] - per_chain[0])
     spread = jnp.sum((left_out - left_out.mean(axis=1, keepdims=True)) ** 2, axis=1)
     return correlation, jnp.sqrt((n_chains - 1) / n_chains * spread)

@@ -10,12 +10,19 @@ dependency).  Each fit returns a :class:`FitResult` with the parameter covarianc
 
 Either way the points are assumed independent.  Points of one correlation function or
 MSD curve are correlated, which makes these error bars too small; for honest errors
-fit independent samples (replicas, chains, blocks) separately and use the scatter of
-the fitted values (:func:`jaxdpd.statistics.block_average`).
+give independent curves (replicas, chains, blocks of a run): :func:`fit_rouse_zimm`
+then fits their mean and takes the errors from the jackknife over them
+(:func:`jackknife`).
+
+Data that cannot determine a parameter raise :class:`DegenerateFitError` (a
+``ValueError``) naming it, never a bare ``numpy.linalg.LinAlgError``.
 
 Nonlinear fits use Levenberg–Marquardt (Press et al., *Numerical Recipes*, 3rd ed.
 (2007), sec. 15.5.2) with a central-difference Jacobian; positive parameters are
-fitted through their logarithm.
+fitted through their logarithm, bounded ones by projection onto their interval with
+the parameters held at a bound the gradient pushes against left out of the step (an
+active-set projected Levenberg–Marquardt; Nocedal & Wright, *Numerical Optimization*,
+2nd ed. (2006), sec. 16.7 on gradient projection).
 """
 
 from __future__ import annotations
@@ -27,14 +34,31 @@ import numpy as np
 from jaxdpd.observables._checks import positive_int
 
 __all__ = [
+    "H_STAR_PHYSICAL_RANGE",
+    "DegenerateFitError",
     "FitResult",
     "exponential_relaxation",
     "fit_end_to_end_relaxation",
     "fit_power_law",
     "fit_rouse_zimm",
+    "jackknife",
     "rouse_zimm_correlation",
     "zimm_relaxation_times",
 ]
+
+
+H_STAR_PHYSICAL_RANGE = (0.0, 0.262)
+"""Default bounds of the fitted hydrodynamic interaction parameter ``h*`` (issue 29):
+from the free-draining (Rouse) chain, ``h* = 0``, to 0.262, the upper end of the
+physical range the issue names."""
+
+
+class DegenerateFitError(ValueError):
+    """The data cannot determine (some of) the fitted parameters.
+
+    Raised instead of a singular-matrix error, e.g. when a parameter does not change
+    the model at the given times, or the curve does not decay at all.
+    """
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +72,8 @@ class FitResult:
       covariance: NumPy ``(k, k)`` covariance of ``values``.
       chi_squared: sum of squared (weighted) residuals at the optimum.
       degrees_of_freedom: number of points minus number of parameters.
+      notes: remarks on the result: parameters at a bound, parameters the model
+        does not have (the dumbbell's ``h*``), how the errors were estimated.
     """
 
     names: tuple[str, ...]
@@ -56,12 +82,21 @@ class FitResult:
     covariance: np.ndarray
     chi_squared: float
     degrees_of_freedom: int
+    notes: tuple[str, ...] = ()
+
+    def _index(self, name: str) -> int:
+        if name not in self.names:
+            raise KeyError(
+                f"{name!r} is not a fitted parameter; this fit has {self.names}"
+                + "".join(f"; {note}" for note in self.notes)
+            )
+        return self.names.index(name)
 
     def __getitem__(self, name: str) -> float:
-        return float(self.values[self.names.index(name)])
+        return float(self.values[self._index(name)])
 
     def error(self, name: str) -> float:
-        return float(self.errors[self.names.index(name)])
+        return float(self.errors[self._index(name)])
 
 
 def _data(x, y, sigma, x_name: str = "x", y_name: str = "y", positive: bool = False):
@@ -82,7 +117,7 @@ def _data(x, y, sigma, x_name: str = "x", y_name: str = "y", positive: bool = Fa
     return x, y, sigma
 
 
-def _finish(names, values, covariance, residuals, sigma, n_params):
+def _finish(names, values, covariance, residuals, sigma, n_params, notes=()):
     dof = residuals.size - n_params
     chi2 = float(residuals @ residuals)
     if sigma is None:
@@ -98,6 +133,7 @@ def _finish(names, values, covariance, residuals, sigma, n_params):
         covariance,
         chi2,
         dof,
+        tuple(notes),
     )
 
 
@@ -148,21 +184,51 @@ def _jacobian(residual, params, scale):
     return np.stack(columns, axis=1)
 
 
-def _levenberg_marquardt(residual, params, max_iterations: int = 200):
-    """Minimise ``|residual(params)|^2``; returns ``(params, J, residuals)``."""
+def _solve(normal, gradient, names):
+    """Solve the damped normal equations; a singular system names its parameters."""
+    try:
+        return np.linalg.solve(normal, gradient)
+    except np.linalg.LinAlgError:
+        idle = [names[i] for i in np.flatnonzero(np.diag(normal) == 0)]
+        raise DegenerateFitError(
+            f"the data do not determine {idle or list(names)}: the model does not change "
+            "with them at the given times (singular normal equations)"
+        ) from None
+
+
+def _levenberg_marquardt(
+    residual, params, names, lower=None, upper=None, max_iterations: int = 200
+):
+    """Minimise ``|residual(params)|^2`` within ``[lower, upper]``.
+
+    Returns ``(params, J, residuals)``.  ``residual`` must be finite slightly beyond
+    the bounds (the Jacobian's central differences step across them).
+    """
     params = np.asarray(params, dtype=np.float64)
+    lower = np.full_like(params, -np.inf) if lower is None else np.asarray(lower, np.float64)
+    upper = np.full_like(params, np.inf) if upper is None else np.asarray(upper, np.float64)
     scale = np.maximum(np.abs(params), 1e-3)
     r = residual(params)
     chi2 = r @ r
     damping = 1e-3
     for _ in range(max_iterations):
         jac = _jacobian(residual, params, scale)
-        normal = jac.T @ jac
         gradient = jac.T @ r
+        # Parameters at a bound that the descent direction pushes against stay there.
+        held = ((params <= lower) & (gradient > 0)) | ((params >= upper) & (gradient < 0))
+        free = ~held
+        if not free.any():
+            break
+        normal = jac[:, free].T @ jac[:, free]
         improved = False
         while damping < 1e12:
-            step = np.linalg.solve(normal + damping * np.diag(np.diag(normal)), -gradient)
-            trial = params + step
+            step = np.zeros_like(params)
+            step[free] = _solve(
+                normal + damping * np.diag(np.diag(normal)),
+                -gradient[free],
+                [n for n, f in zip(names, free, strict=True) if f],
+            )
+            trial = np.clip(params + step, lower, upper)
             r_trial = residual(trial)
             chi2_trial = r_trial @ r_trial
             if np.isfinite(chi2_trial) and chi2_trial <= chi2:
@@ -171,14 +237,64 @@ def _levenberg_marquardt(residual, params, max_iterations: int = 200):
             damping *= 10
         if not improved:
             break
+        moved = trial - params
         converged = chi2 - chi2_trial <= 1e-12 * max(chi2, 1e-300) and np.all(
-            np.abs(step) <= 1e-9 * np.maximum(np.abs(params), 1e-9) + 1e-12
+            np.abs(moved) <= 1e-9 * np.maximum(np.abs(params), 1e-9) + 1e-12
         )
         params, r, chi2 = trial, r_trial, chi2_trial
         damping = max(damping / 10, 1e-12)
         if converged or chi2 == 0:
             break
     return params, _jacobian(residual, params, scale), r
+
+
+def _covariance(jac, names):
+    """``(J^T J)^-1``; a rank-deficient Jacobian raises :class:`DegenerateFitError`."""
+    normal = jac.T @ jac
+    columns = np.sqrt(np.diag(normal))
+    if np.any(columns == 0) or np.linalg.matrix_rank(jac / np.where(columns > 0, columns, 1)) < (
+        len(names)
+    ):
+        idle = [n for n, c in zip(names, columns, strict=True) if c == 0] or list(names)
+        raise DegenerateFitError(
+            f"the data do not determine {idle}: the model's derivatives with respect to "
+            "them vanish or are linearly dependent at the optimum"
+        )
+    return np.linalg.inv(normal)
+
+
+def jackknife(fit: FitResult, refit, blocks) -> FitResult:
+    """``fit`` with its covariance from the delete-one jackknife over blocks.
+
+    With ``theta_k = refit(blocks without block k)`` for each of the ``B`` blocks,
+    ``cov = ((B - 1)/B) sum_k (theta_k - mean theta)(theta_k - mean theta)^T``
+    (Efron & Stein, Ann. Stat. 9, 586 (1981); Efron, *The Jackknife, the Bootstrap and
+    Other Resampling Plans* (1982), ch. 3).  Honest for points correlated in time as
+    long as the blocks are independent (replicas, chains, or blocks of a run longer
+    than the correlation time).
+
+    Args:
+      fit: the fit of all blocks together.
+      refit: ``refit(others)`` → the :class:`FitResult` of the ``(B - 1, ...)``
+        blocks left; its parameters must be those of ``fit``.
+      blocks: ``(B, ...)`` array, ``B >= 3``.
+
+    Returns:
+      ``fit`` with the jackknife ``covariance`` and ``errors`` and a note saying so.
+    """
+    blocks = np.asarray(blocks)
+    count = len(blocks)
+    if count < 3:
+        raise ValueError(f"blocks: the jackknife needs at least 3 blocks, got {count}")
+    values = np.stack([refit(np.delete(blocks, k, axis=0)).values for k in range(count)])
+    deviations = values - values.mean(axis=0)
+    covariance = (count - 1) / count * deviations.T @ deviations
+    return dataclasses.replace(
+        fit,
+        errors=np.sqrt(np.diag(covariance)),
+        covariance=covariance,
+        notes=(*fit.notes, f"errors: delete-one jackknife over {count} blocks"),
+    )
 
 
 def exponential_relaxation(t, amplitude, relaxation_time, plateau):
@@ -228,11 +344,12 @@ def fit_end_to_end_relaxation(times, end_to_end_squared, error=None) -> FitResul
     def residual(p):
         return weight * (exponential_relaxation(t, p[0], np.exp(p[1]), p[2]) - y)
 
-    p, jac, r = _levenberg_marquardt(residual, [amplitude0, np.log(tau0), plateau0])
-    covariance = np.linalg.pinv(jac.T @ jac)
+    names = ("amplitude", "relaxation_time", "plateau")
+    p, jac, r = _levenberg_marquardt(residual, [amplitude0, np.log(tau0), plateau0], names)
+    covariance = _covariance(jac, names)
     to_linear = np.diag([1.0, np.exp(p[1]), 1.0])
     return _finish(
-        ("amplitude", "relaxation_time", "plateau"),
+        names,
         (p[0], np.exp(p[1]), p[2]),
         to_linear @ covariance @ to_linear,
         r,
@@ -306,9 +423,14 @@ def zimm_relaxation_times(n_beads: int, h_star: float, time_unit: float = 1.0):
     approximation is within 1.4 per cent for N = 20, h* = 0.25, p <= 4 (3 per cent at
     h* = 0.4), slightly short of the exact times (tests/test_polymer_fits.py).
 
-    This is not the Thurston approximation of the Zimm eigenvalues: Clarke's thesis as
-    available in ``shared/seeds`` contains neither that approximation nor a Rouse–Zimm
-    fit, so the documented diagonal approximation is used instead.
+    For N = 3 the approximation is exact: the Rouse modes are then eigenvectors of
+    ``H.A`` modulo the centre of mass, with eigenvalues ``1 - h*`` and
+    ``3 - 4 sqrt(2) h* + h*`` (tests/test_polymer_fits.py derives them by hand).
+
+    This is not the Thurston approximation of the Zimm eigenvalues (Thurston & Morrison,
+    Polymer 10, 421 (1969); Thurston, Polymer 15, 569 (1974)): no source available to
+    this project (``shared/seeds``, Clarke's thesis included) states its formula, so the
+    documented diagonal approximation is used instead.
 
     Args:
       n_beads: N >= 2.
@@ -354,46 +476,181 @@ def rouse_zimm_correlation(t, n_beads: int, longest_relaxation_time: float, h_st
     return _correlation(t, _RouseZimmTerms.of(n), longest_relaxation_time, h_star)
 
 
-def fit_rouse_zimm(times, correlation, n_beads: int, error=None, h_star_start: float = 0.1):
+def _h_star_bounds(h_star_bounds, n_beads: int):
+    try:
+        lower, upper = (float(b) for b in h_star_bounds)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"h_star_bounds must be a pair (lower, upper), got {h_star_bounds!r}"
+        ) from None
+    if not 0 <= lower < upper < 0.547:
+        raise ValueError(
+            f"h_star_bounds must satisfy 0 <= lower < upper < 0.547 (the range in which "
+            f"the preaveraged Zimm matrix is positive definite), got {h_star_bounds!r}"
+        )
+    _check_h_star(upper, n_beads)
+    return lower, upper
+
+
+def _curves(times, correlation, error):
+    """``(t, mean curve, its errors or None, blocks (B, n) or None)``."""
+    blocks = np.asarray(correlation, dtype=np.float64)
+    if blocks.ndim == 2:
+        if error is not None:
+            raise ValueError(
+                "error must be None when correlation has a block axis (B, n): the "
+                "errors come from the scatter of the blocks"
+            )
+        if blocks.shape[0] < 3:
+            raise ValueError(
+                f"correlation: a block axis needs at least 3 blocks for the jackknife, "
+                f"got shape {blocks.shape}"
+            )
+        mean = blocks.mean(axis=0)
+        error = blocks.std(axis=0, ddof=1) / np.sqrt(blocks.shape[0])
+        if not np.all(error > 0):
+            raise DegenerateFitError(
+                "correlation: the blocks agree exactly at some times, so their scatter "
+                "gives no error there; give blocks that scatter independently"
+            )
+        t, c, sigma = _data(times, mean, error, "times", "correlation")
+        return t, c, sigma, blocks
+    if blocks.ndim != 1:
+        raise ValueError(f"correlation must have shape (n,) or (B, n) (blocks), got {blocks.shape}")
+    t, c, sigma = _data(times, blocks, error, "times", "correlation")
+    return t, c, sigma, None
+
+
+def fit_rouse_zimm(
+    times,
+    correlation,
+    n_beads: int,
+    error=None,
+    h_star_start: float = 0.1,
+    h_star_bounds=H_STAR_PHYSICAL_RANGE,
+) -> FitResult:
     """Fit ``tau_1`` and ``h*`` of the Rouse–Zimm ``C(t)`` (:func:`rouse_zimm_correlation`).
+
+    ``h*`` is fitted within ``h_star_bounds`` (default [0, 0.262],
+    :data:`H_STAR_PHYSICAL_RANGE`) by projected Levenberg–Marquardt (module docstring);
+    a value at a bound is reported as such in ``notes``, with the error from the
+    curvature of ``chi^2`` there (one-sided: the constrained estimate cannot move past
+    the bound).  ``tau_1`` is fitted through its logarithm.  The model's mode times are
+    those of :func:`zimm_relaxation_times` (the diagonal approximation, exact for
+    N = 2 and 3; not Thurston's approximation, see there).
+
+    A dumbbell (``n_beads = 2``) has one mode: ``C(t) = exp(-t/tau_1)`` exactly for
+    every ``h*`` (which only sets ``tau_1`` in units of ``zeta/H``, see
+    :func:`zimm_relaxation_times`), so it is fitted as that single exponential and
+    the result has ``tau_1`` alone, with a note that ``h*`` is undefined
+    (``result["h_star"]`` raises ``KeyError`` saying so).
+
+    Errors: with ``correlation`` of shape ``(B, n)`` (B >= 3 independent curves:
+    replicas, chains or blocks of a run, e.g. from
+    :func:`jaxdpd.observables.chain_correlators.positional_autocorrelation` of each
+    replica) the mean curve is fitted, weighted by its standard errors over the
+    blocks, and the covariance is the delete-one jackknife over the blocks
+    (:func:`jackknife`), honest for points correlated in time.  With a single curve
+    ``(n,)`` the covariance is the least-squares one (module docstring), which treats
+    the points as independent and is too small for points of one correlation function.
 
     Args:
       times: ``(n,)`` lag times (time units), ``n >= 3``.
-      correlation: ``(n,)`` measured normalised ``C(t)``.
-      n_beads: N, beads per chain.
-      error: optional ``(n,)`` standard errors of ``correlation``.
-      h_star_start: start value of ``h*``.
+      correlation: ``(n,)`` measured normalised ``C(t)``, or ``(B, n)`` one curve per
+        block.
+      n_beads: N >= 2, beads per chain.
+      error: optional ``(n,)`` standard errors of a single curve (None with blocks).
+      h_star_start: start value of ``h*``, within ``h_star_bounds``.
+      h_star_bounds: ``(lower, upper)`` with ``0 <= lower < upper < 0.547``.
 
     Returns:
-      :class:`FitResult` with names ``("longest_relaxation_time", "h_star")``.  The
-      start value of ``tau_1`` is the time at which ``C`` first falls below ``1/e``.
-      ``h*`` is not constrained to [0, 0.547): a fitted value below 0 (within its
-      error of 0) is consistent with Rouse dynamics; one outside the range by many
-      standard errors means the model does not describe the data.
+      :class:`FitResult` with names ``("longest_relaxation_time", "h_star")`` (or
+      ``("longest_relaxation_time",)`` for a dumbbell).  The start value of ``tau_1``
+      is the time at which ``C`` first falls below ``1/e``.
+
+    Raises:
+      ValueError: bad arguments, named.
+      DegenerateFitError: the data cannot determine a parameter (e.g. ``C`` does not
+        decay over the times given, or every time is past the decay of all modes
+        but the first, so that ``h*`` has no effect).
     """
-    t, c, sigma = _data(times, correlation, error, "times", "correlation")
     n = positive_int(n_beads, "n_beads", minimum=2)
+    t, c, sigma, blocks = _curves(times, correlation, error)
     if t.size < 3:
         raise ValueError(f"the Rouse–Zimm fit needs at least 3 points, got {t.size}")
-    _check_h_star(h_star_start, n)
-    weight = 1.0 if sigma is None else 1.0 / sigma
+    lower, upper = _h_star_bounds(h_star_bounds, n)
+    if not lower <= h_star_start <= upper:
+        raise ValueError(
+            f"h_star_start must lie within h_star_bounds {(lower, upper)}, got {h_star_start!r}"
+        )
+    first, last = np.argmin(t), np.argmax(t)
+    if not c[last] < c[first]:
+        raise DegenerateFitError(
+            f"correlation does not decay: C = {float(c[last])} at the longest time "
+            f"{float(t[last])} is not below C = {float(c[first])} at the shortest time "
+            f"{float(t[first])}, so no relaxation time can be fitted"
+        )
     below = np.flatnonzero(c < 1 / np.e)
-    tau0 = float(t[below[0]]) if below.size else float(t.max())
-    terms = _RouseZimmTerms.of(n)
+    tau_start = max(float(t[below[0]]) if below.size else float(t.max()), 1e-12)
+    fit = _rouse_zimm_fit(t, c, sigma, n, tau_start, h_star_start, lower, upper)
+    if blocks is None:
+        return fit
+
+    def refit(others):
+        error = others.std(axis=0, ddof=1) / np.sqrt(len(others))
+        return _rouse_zimm_fit(
+            t, others.mean(axis=0), error, n, tau_start, h_star_start, lower, upper
+        )
+
+    return jackknife(fit, refit, blocks)
+
+
+def _rouse_zimm_fit(t, c, sigma, n_beads, tau_start, h_star_start, lower, upper):
+    weight = 1.0 if sigma is None else 1.0 / sigma
+    if n_beads == 2:
+        names = ("longest_relaxation_time",)
+
+        def single(params):
+            return weight * (np.exp(-t / np.exp(params[0])) - c)
+
+        params, jac, r = _levenberg_marquardt(single, [np.log(tau_start)], names)
+        covariance = _covariance(jac, names)
+        tau = np.exp(params[0])
+        note = (
+            "h_star is undefined for a dumbbell: its single mode gives C(t) = "
+            "exp(-t/tau_1) whatever h* (h* sets tau_1 in units of zeta/H only)"
+        )
+        return _finish(names, (tau,), tau**2 * covariance, r, sigma, 1, (note,))
+
+    names = ("longest_relaxation_time", "h_star")
+    terms = _RouseZimmTerms.of(n_beads)
 
     def residual(params):
-        if np.any(_mode_rates(terms, params[1]) <= 0):
-            return np.full(t.shape, np.inf)
         return weight * (_correlation(t, terms, np.exp(params[0]), params[1]) - c)
 
-    params, jac, r = _levenberg_marquardt(residual, [np.log(max(tau0, 1e-12)), h_star_start])
-    covariance = np.linalg.pinv(jac.T @ jac)
+    params, jac, r = _levenberg_marquardt(
+        residual,
+        [np.log(tau_start), h_star_start],
+        names,
+        lower=[-np.inf, lower],
+        upper=[np.inf, upper],
+    )
+    covariance = _covariance(jac, names)
+    notes = []
+    for bound, side in ((lower, "lower"), (upper, "upper")):
+        # Within the optimiser's step tolerance of the bound (see _levenberg_marquardt).
+        if abs(params[1] - bound) <= 1e-9:
+            notes.append(
+                f"h_star is at its {side} bound {bound} (h_star_bounds); its error is "
+                "the curvature of chi^2 there"
+            )
     to_linear = np.diag([np.exp(params[0]), 1.0])
     return _finish(
-        ("longest_relaxation_time", "h_star"),
+        names,
         (np.exp(params[0]), params[1]),
         to_linear @ covariance @ to_linear,
         r,
         sigma,
         2,
+        notes,
     )
