@@ -84,7 +84,8 @@ def modified_velocity_verlet(
         moved = state.positions + dt_ * drift + (0.5 * dt_ * dt_) * displacement_acceleration
         box_state = box.advance(state.box_state, state.time, dt_)
         new_bound = box.bind(box_state)
-        positions, image = new_bound.wrap(moved, state.image)
+        image = box.carry_images(state.image, state.box_state, box_state)
+        positions, image = new_bound.wrap(moved, image)
         rate_of_change = accelerations
         drag = flows.sllod_drag(bound, state.velocities)
         if drag is not None:
@@ -302,7 +303,8 @@ def mpcd_cycle(
         box_state = box.advance(state.box_state, state.time, h)
         new_bound = box.bind(box_state)
         moved, velocities = stream(bound, new_bound, state.positions, state.velocities)
-        positions, image = new_bound.wrap(moved, state.image)
+        image = box.carry_images(state.image, state.box_state, box_state)
+        positions, image = new_bound.wrap(moved, image)
         forces, virial = state.forces, {}
         pair_list, bits = state.pair_list, jnp.int32(0)
         if monomers is not None:

@@ -12,7 +12,8 @@ With a hard-core pair force (pair.kind = "wca") overlapping particles would star
 with enormous forces, so every particle is then placed at least σ away (minimum
 image) from all earlier ones, except a chain bead from its predecessor: chains grow
 as self-avoiding walks (a trapped chain is regrown), free particles are drawn until
-they fit.
+they fit.  Either placement gives up with a ValueError after PLACEMENT_SECONDS of
+wall time rather than hang on a box too crowded (or too large) for it.
 
 With [spring_repulsion] a crossing or nearly touching spring pair would start tens of
 k_BT up the repulsion's energy (A = 100 k_BT at contact for the Kumar–Larson law),
@@ -23,6 +24,8 @@ keeps at least the repulsion range from all earlier springs sharing no bead with
 The configuration is drawn on the host with NumPy's PCG64 generator seeded by the
 scene's seed (no device compilation for a one-off), then cast to the scene's dtype.
 """
+
+import time
 
 import jax
 import jax.numpy as jnp
@@ -90,6 +93,24 @@ def _random_walks(rng, block, lengths):
 
 
 MAX_ATTEMPTS = 1000
+# Wall-time bound of the rejection placements (hard cores, spring clearance).
+PLACEMENT_SECONDS = 120.0
+
+
+class _Deadline:
+    """Raises ValueError naming `field` once PLACEMENT_SECONDS have passed."""
+
+    def __init__(self, field: str, total: int):
+        self.field, self.total = field, total
+        self.end = time.monotonic() + PLACEMENT_SECONDS
+
+    def check(self, placed: int) -> None:
+        if time.monotonic() > self.end:
+            raise ValueError(
+                f"{self.field}: placing {self.total} particles gave up after "
+                f"{PLACEMENT_SECONDS:g} s with {placed} placed; the box is too crowded for "
+                "random placement (fewer particles or chains, or a larger box)"
+            )
 
 
 def _spring_avoiding_walks(rng, unwrapped, blocks, lengths, clearance: float):
@@ -123,6 +144,7 @@ def _spring_avoiding_walks(rng, unwrapped, blocks, lengths, clearance: float):
         return bool(np.all(np.asarray(near)[:others] >= clearance))
 
     spring = 0
+    deadline = _Deadline("spring_repulsion", len(unwrapped))
     for block in blocks:
         bond_length = block.law.placement_length
         for c in range(block.n_chains):
@@ -131,6 +153,7 @@ def _spring_avoiding_walks(rng, unwrapped, blocks, lengths, clearance: float):
                 unwrapped[first_bead] = rng.uniform(size=3) * lengths
                 for k in range(1, block.beads):
                     for _ in range(MAX_ATTEMPTS):
+                        deadline.check(first_bead + k)
                         step = rng.normal(size=3)
                         bond = bond_length * step / np.linalg.norm(step)
                         start = unwrapped[first_bead + k - 1]
@@ -189,8 +212,11 @@ def _excluded_volume_configuration(rng, n, blocks, lengths, min_distance: float)
             distance_sq[skip] = np.inf
         return bool(np.all(distance_sq >= min_distance * min_distance))
 
+    deadline = _Deadline("particles", n)
+
     def place_free(index):
         for _ in range(MAX_ATTEMPTS):
+            deadline.check(index)
             candidate = rng.uniform(size=3) * lengths
             if fits(candidate, index):
                 positions[index] = candidate
@@ -205,6 +231,7 @@ def _excluded_volume_configuration(rng, n, blocks, lengths, min_distance: float)
             place_free(start)
             for k in range(start + 1, start + beads):
                 for _ in range(MAX_ATTEMPTS):
+                    deadline.check(k)
                     step = rng.normal(size=3)
                     candidate = positions[k - 1] + bond_length * step / np.linalg.norm(step)
                     if fits(candidate, k, skip=k - 1):

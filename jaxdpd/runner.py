@@ -47,6 +47,7 @@ from jaxdpd.observables.rheology import summary_rows
 from jaxdpd.running_averages import RunningBlockAverages
 from jaxdpd.scene import Scene
 from jaxdpd.simulation import build
+from jaxdpd.temperature_check import temperature_warning
 
 # Components of the pressure tensor reported in the summary table.
 TENSOR_COMPONENTS = ((0, 1, "P_xy"), (1, 0, "P_yx"), (0, 0, "P_xx"), (2, 2, "P_zz"))
@@ -70,6 +71,9 @@ class RunSummary:
             forces), shown beside the measured mean.
         series: name -> NumPy series of this invocation's production chunks, only
             with keep_series=True (the file holds them all).
+        warnings: name -> message of each average that failed a sanity check
+            (jaxdpd.temperature_check: "temperature" off the set k_BT); marked in the
+            table, printed at the end of the run and stored in the file.
     """
 
     rdf: tuple | None
@@ -81,20 +85,24 @@ class RunSummary:
     averages: dict = field(default_factory=dict)
     references: dict = field(default_factory=dict)
     series: dict = field(default_factory=dict)
+    warnings: dict = field(default_factory=dict)
 
     def table(self) -> str:
-        """Mean ± standard error (20 block averages) of each scalar series."""
+        """Mean ± standard error (20 block averages) of each scalar series; a row that
+        failed a sanity check is marked "<- WARNING" and its warning follows the table."""
         rows = [f"{'observable':<30}{'mean':>14}{'± s.e.':>12}{'ideal chain':>14}"]
         for name, (mean, error) in self.averages.items():
             reference = self.references.get(name)
             ideal = f"{reference:>14.6g}" if reference is not None else ""
-            rows.append(f"{name:<30}{mean:>14.6g}{error:>12.2g}{ideal}")
+            mark = "  <- WARNING" if name in self.warnings else ""
+            rows.append(f"{name:<30}{mean:>14.6g}{error:>12.2g}{ideal}{mark}")
         rows.append(f"{'particle-steps/s':<30}{self.steady_rate:>14.4g}{'(compiled)':>12}")
         if self.rdf is not None:
             r, g = self.rdf
             peak = int(np.nanargmax(g))
             rows.append(f"{'g(r) first peak at r':<30}{r[peak]:>14.4g}")
             rows.append(f"{'g(r) first peak height':<30}{g[peak]:>14.4g}")
+        rows.extend(f"WARNING: {message}" for message in self.warnings.values())
         return "\n".join(rows)
 
 
@@ -323,7 +331,10 @@ class Run:
                 self.bar.finish()
                 rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None
                 correlations = self._correlations(state)
+                warnings = self._sanity_warnings()
                 if self.writer is not None:
+                    if "temperature" in self.averages.names:
+                        self.writer.write_warning("temperature", warnings.get("temperature"))
                     self.checkpoint(state, "end of run")
                     if rdf is not None:
                         self.writer.write_rdf(*rdf, self.rdf.samples)
@@ -336,7 +347,18 @@ class Run:
             finally:
                 if self.writer is not None:
                     self.writer.close()
-        return self._summary(state, rdf, correlations, wall)
+        for message in warnings.values():
+            print(f"jaxdpd: WARNING: {message}", file=self.stream)
+        return self._summary(state, rdf, correlations, wall, warnings)
+
+    def _sanity_warnings(self) -> dict:
+        """name -> warning of each average that fails its sanity check (the
+        temperature, jaxdpd.temperature_check)."""
+        if "temperature" not in self.averages.names:
+            return {}
+        mean, error = (float(x) for x in self.averages.result("temperature"))
+        message = temperature_warning(self.scene, mean, error)
+        return {} if message is None else {"temperature": message}
 
     def _correlations(self, state) -> dict:
         """name -> (lag times, values) of the on-device chain correlators."""
@@ -345,15 +367,18 @@ class Run:
         interval = self.scene.output.correlator_every * self.scene.step_time
         return chain_correlations(state.observers, interval)
 
-    def _summary(self, state, rdf, correlations, wall: float) -> RunSummary:
+    def _summary(self, state, rdf, correlations, wall: float, warnings: dict) -> RunSummary:
         scene = self.scene
         summary = RunSummary(rdf, scene.run.steps, wall, state, scene.n_particles)
+        summary.warnings = warnings
         if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
             (t0, s0), (t1, s1) = self.chunk_ends
             summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
+        # Under shear g3 holds the flow's dispersion along x: no D_CM from its slope.
+        diffusion = center_of_mass_diffusion(correlations) if scene.flow is None else {}
         summary.averages = (
             _summary_averages(self.averages)
-            | center_of_mass_diffusion(correlations)
+            | diffusion
             | summary_rows(scene, self.averages.block_means(), self.averages.n_blocks)
         )
         kT = _reference_temperature(scene, summary.averages)

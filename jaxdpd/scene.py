@@ -534,10 +534,11 @@ class Scene:
                 else (min(lengths), "the shortest box edge", "thesis §3.2.3")
             )
             _check_spring_room(polymers, spring_room)
-        if flow is not None and "dynamics" in output.observables:
+        if _kind(flow) == "planar_elongation" and "dynamics" in output.observables:
             raise ValueError(
                 "output.observables: 'dynamics' (mean-square displacements) needs a box at "
-                "rest; under flow, measure the chains with 'conformation'"
+                "rest or in shear (Kraynik–Reinelt positions cannot be unwrapped); under "
+                "elongation, measure the chains with 'conformation'"
             )
         body_force = _read_body_force(data.get("body_force"), solvent, particles)
         if "drag" in output.observables and _kind(body_force) != "tagged":
@@ -1043,6 +1044,11 @@ def _read_particles(section, lengths, chain_lengths: dict):
         )
     if lengths is not None:
         volume = math.prod(lengths)
+        if not 0 < volume < math.inf:
+            raise ValueError(
+                f"box.lengths = {list(lengths)}: the volume {volume} is not a positive "
+                "finite number (edges of a few r_c and more)"
+            )
         if (density is None) == (count is None):
             raise ValueError(
                 "particles: with box.lengths given, give exactly one of particles.density "
@@ -1165,6 +1171,8 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
     elif isinstance(a, dict):
         matrix = [[None] * n for _ in range(n)]
         for key in a:
+            if not isinstance(key, str):
+                raise TypeError(f"pair.a: key {key!r} must be a string 'A-B' of species names")
             parts = key.split("-")
             if len(parts) != 2:
                 raise ValueError(f"pair.a: key {key!r} must be 'A-B' with two species names")

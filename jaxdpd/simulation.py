@@ -59,6 +59,7 @@ from jaxdpd.pairs import soft_repulsion_term, wca_term
 from jaxdpd.pairwise import pair_geometry, pair_sums
 from jaxdpd.parameters import scene_parameters
 from jaxdpd.placement import initial_configuration
+from jaxdpd.resources import check_resources
 from jaxdpd.scene import Scene
 from jaxdpd.segments import (
     pair_magnitudes,
@@ -325,6 +326,7 @@ def build(scene: Scene) -> Simulation:
     """
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
+    check_resources(scene, box)
     terms = pair_terms(scene, dtype)
     blocks = chain_blocks(scene)
     first, stop = force_range(scene, blocks)
@@ -479,7 +481,9 @@ def build(scene: Scene) -> Simulation:
                 state.step,
                 scene.output.correlator_every,
                 state.observers,
-                lambda c: update_chain_correlators(c, box, state.positions, state.image, blocks),
+                lambda c: update_chain_correlators(
+                    c, bound_box, state.positions, state.image, blocks
+                ),
             )
             state = state.set(observers=observers)
         if "spring_pairs" in observables:
@@ -511,11 +515,12 @@ def build(scene: Scene) -> Simulation:
                 f"init_observers: state.positions must be (N, 3) or (B, N, 3), "
                 f"got shape {state.positions.shape}"
             )
-        positions, image = state.positions, state.image
+        positions, image, box_state = state.positions, state.image, state.box_state
         if batch_shape:
             positions, image = positions[0], image[0]
+            box_state = jax.tree.map(lambda leaf: leaf[0], box_state)
         observers = init_chain_correlators(
-            box, positions, image, blocks, scene.output.correlator_levels
+            box.bind(box_state), positions, image, blocks, scene.output.correlator_levels
         )
         return state.set(
             observers=jax.tree.map(

@@ -8,6 +8,7 @@ range, before anything is traced.
 import math
 
 _MISSING = object()
+INT32_MAX = 2**31 - 1
 # Pass as `default` to make a field required (the readers' default).
 REQUIRED = _MISSING
 
@@ -16,6 +17,9 @@ def check_keys(section: dict, allowed, path: str) -> None:
     """Refuse keys that the section does not know."""
     if not isinstance(section, dict):
         raise TypeError(f"{path}: expected a table (dict), got {type(section).__name__}")
+    for key in section:
+        if not isinstance(key, str):
+            raise TypeError(f"{path}: keys must be strings, got {key!r}")
     unknown = sorted(set(section) - set(allowed))
     if unknown:
         raise ValueError(f"{path}: unknown key(s) {unknown}; valid keys: {sorted(allowed)}")
@@ -45,7 +49,11 @@ def read_number(
     exclusive_minimum=False,
     integer=False,
 ):
-    """A real (or integer) field within [minimum, maximum] (minimum exclusive on request)."""
+    """A real (or integer) field within [minimum, maximum] (minimum exclusive on request).
+
+    An integer field without a `maximum` is bounded by INT32_MAX: counts, sizes and
+    step numbers enter int32 arithmetic on the device (jaxdpd.resources).
+    """
     name = _field(path, key)
     if not _present(section, key, path, default):
         return default
@@ -64,6 +72,8 @@ def read_number(
             raise ValueError(f"{name} = {value!r}: must be > {minimum}")
         if not exclusive_minimum and not value >= minimum:
             raise ValueError(f"{name} = {value!r}: must be ≥ {minimum}")
+    if integer and maximum is None:
+        maximum = INT32_MAX
     if maximum is not None and not value <= maximum:
         raise ValueError(f"{name} = {value!r}: must be ≤ {maximum}")
     return int(value) if integer else float(value)

@@ -152,6 +152,12 @@ class KraynikReineltBox:
         strain = strain - period * jnp.floor(strain / period + 0.5)
         return box_state.set(strain=strain)
 
+    def carry_images(self, image, before, after):
+        """The image counters unchanged: they count crossings of the current frame's
+        faces, and the basis changes at each lattice reset, so r + n · edges is no
+        unwrapped trajectory in this box (the scene refuses "dynamics" under flow)."""
+        return image
+
     def image_drift(self, box_state: KraynikReineltState, reference_state: KraynikReineltState):
         """A bound on how far any image that can hold a neighbour has moved against
         the primary cell since `reference_state`.

@@ -10,6 +10,18 @@ a1 = (L_x, 0, 0), a2 = (Δ, L_y, 0), a3 = (0, 0, L_z).  The offset grows as
 dΔ/dt = γ̇ L_y and is kept in [−L_x/2, L_x/2) (adding L_x changes no image), so it
 stays exact in float32 for any strain.
 
+Unwrapped coordinates are r + n_x a1 + n_y a2 + n_z a3 = r + n · edges, with n the
+image counters and a2 = (Δ, L_y, 0) at the same instant (`BoundLeesEdwards.unwrap`;
+the H5MD file stores exactly these edges with each frame, so the rule reads the same
+there: `jaxdpd.io.reader.read_unwrapped_positions`).  They follow each particle
+continuously through the laboratory frame: between crossings n_y Δ grows as
+n_y γ̇ L_y t, the streaming velocity of the image the particle sits in.  When the
+offset wraps by −L_x, n_y a2 jumps by −n_y L_x x̂, so every particle's x counter gains
+n_y (`LeesEdwardsBox.carry_images`); without that, particles that have crossed the
+y boundary jumped by multiples of L_x at each wrap.  This needs |γ̇| L_y Δt < L_x/2
+(the wraps of a step are read from the change of Δ; build() refuses faster shear,
+jaxdpd.resources), far beyond any usable step.
+
 Velocities are stored as peculiar velocities c = v − u(r) (SLLOD, thesis eqs.
 3.42–3.43).  A particle leaving through y = L_y re-enters at y − L_y with x − Δ; its
 laboratory velocity jumps by −γ̇ L_y, its peculiar velocity does not change.  A pair
@@ -124,6 +136,23 @@ class LeesEdwardsBox:
             clock = clock - period * jnp.floor(clock / period)
         return box_state.set(offset=offset, time=clock)
 
+    def carry_images(self, image, before: LeesEdwardsState, after: LeesEdwardsState):
+        """Image counters that keep r + n · edges unchanged across a step's offset wrap.
+
+        Δ_after = Δ_before + γ̇ L_y Δt − k L_x with k wraps; adding n_y k to n_x leaves
+        n_x L_x + n_y Δ continuous.  Call with the counters before the step's `wrap`
+        (a particle crossing y in this step is shifted by the new offset there).
+
+        Args:
+            image: (N, 3) int32 image counters.
+            before, after: the box state at the start and end of the step.
+        Returns:
+            (N, 3) int32 counters.
+        """
+        lx = self.lengths[0]
+        wraps = jnp.round((before.offset - after.offset) / lx).astype(image.dtype)
+        return image.at[:, 0].add(wraps * image[:, 1])
+
     def image_drift(self, box_state: LeesEdwardsState, reference_state: LeesEdwardsState):
         """|ΔΔ|: how far the images across y moved in x since `reference_state`
         (modulo L_x, the smaller way round)."""
@@ -234,6 +263,14 @@ class BoundLeesEdwards:
         z, crossings_z = wrap_axis(positions[:, 2], lz)
         crossings = jnp.stack([crossings_x, crossings_y, crossings_z], axis=1)
         return jnp.stack([x, y, z], axis=1), image + crossings.astype(image.dtype)
+
+    def unwrap(self, positions, image):
+        """Unwrapped positions r + n_x a1 + n_y a2 + n_z a3 (a2 = (Δ, L_y, 0)), continuous
+        in time when the counters are carried across offset wraps (see the module
+        docstring)."""
+        image = image.astype(positions.dtype)
+        lengths = self.lengths_array(positions.dtype)
+        return (positions + image * lengths).at[:, 0].add(image[:, 1] * self.offset)
 
     def frame_positions(self, positions):
         """Sheared-frame coordinates (u, y, z), u = x − (Δ/L_y) y wrapped into [0, L_x)."""

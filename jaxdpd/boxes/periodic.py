@@ -8,7 +8,9 @@ edge lengths fix array shapes at trace time); boxes that change with time (shear
 elongated) keep a traced `box state` in `SimState.box_state` and are *bound* to it
 inside a step (`box.bind(state.box_state)`), giving an object with the same methods
 that reads the current offset or lattice.  A periodic box at rest has no state and
-binds to itself, so no flow arithmetic is traced for it.
+binds to itself, so no flow arithmetic is traced for it.  The unbound box's
+`carry_images(image, before, after)` adjusts the counters when its state changes
+(the Lees–Edwards offset wrap).
 
 The interface (bound box):
     separation(components)       minimum-image (dx, dy, dz) of r_i − r_j
@@ -16,6 +18,7 @@ The interface (bound box):
     spring_vectors(sep, dn)      spring vectors from raw separations and image-counter
                                  differences, and whether any is ambiguous
     wrap(positions, image)       positions back into the primary box, image counters
+    unwrap(positions, image)     r + n · (lattice vectors) (periodic and Lees–Edwards)
     frame_positions(positions)   coordinates in which the lattice is rectangular with
                                  edges `lengths` (the cell list bins these)
     frame_to_cartesian(comps)    Cartesian separation from a frame separation
@@ -66,6 +69,11 @@ class PeriodicBox:
     def bind(self, box_state):
         """The box as it is in `box_state` (a box at rest is always itself)."""
         return self
+
+    def carry_images(self, image, before, after):
+        """Image counters after the box state went from `before` to `after` (a box at
+        rest changes none)."""
+        return image
 
     def image_drift(self, box_state, reference_state):
         """How far any periodic image has moved against the primary box since

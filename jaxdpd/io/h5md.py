@@ -20,6 +20,8 @@ Layout written:
          image/{value (T, N, 3) int32}           hard-linked to position's (spec)
     /connectivity/bonds         (B, 2) bonded pairs of the polymer chains
     /observables/<name>/{step,time,value}        per-step series of the production
+                                attr warning: a failed sanity check of its mean
+                                (temperature off the set k_BT)
     /averages/rdf/{r, g}        g(r) averaged over the run (time-independent)
     /averages/<species>/<g1|g2|g3|end_to_end_acf|positional_acf>/{lag_time,value,per_element}
                                 on-device time correlations over the production
@@ -377,6 +379,15 @@ class H5MDWriter:
             group.create_dataset("r", data=r).attrs["reduced_unit"] = "r_c"
             group.create_dataset("g", data=g)
             group.attrs["samples"] = samples
+
+    def write_warning(self, name: str, message: str | None) -> None:
+        """Set (or, with None, remove) the `warning` attribute of observables/<name>: a
+        sanity check of the run's averages that failed (jaxdpd.temperature_check)."""
+        attributes = self.file[f"observables/{name}"].attrs
+        if message is not None:
+            attributes["warning"] = message
+        elif "warning" in attributes:
+            del attributes["warning"]
 
     def write_correlation(self, name: str, lag_times, values) -> None:
         """(Re)write a time correlation measured over the run:

@@ -152,6 +152,34 @@ def read_trajectory(path, element: str = "position") -> Series:
     )
 
 
+def read_unwrapped_positions(path) -> Series:
+    """Stored frames unwrapped: r + n · edges, value (T, N, 3) float64.
+
+    The rule for every file (and any H5MD reader): add to each position its image
+    counters times the frame's box edges, n_x a1 + n_y a2 + n_z a3, the rows of a
+    (3, 3) `edges` or the diagonal of a (3,) one.  For a Lees–Edwards box a2 =
+    (Δ, L_y, 0) holds the frame's offset; the counters are carried across the
+    offset's wraps (jaxdpd.boxes.lees_edwards), so the unwrapped trajectory is
+    continuous, the laboratory-frame path of each particle.  Kraynik–Reinelt frames
+    have no such rule (the lattice basis changes at each reset): RunFileError.
+    """
+    with open_run_file(path) as handle:
+        if scene_of(handle).box.kind == "kraynik_reinelt":
+            raise RunFileError(
+                f"{path}: Kraynik–Reinelt frames cannot be unwrapped (the lattice basis "
+                "changes at each reset; image counters count faces of the current cell)"
+            )
+        particles = f"{PARTICLES}/position"
+        if particles not in handle:
+            raise RunFileError(f"{path}: no {particles} (set output.trajectory_every)")
+        position = _series(handle[particles])
+        image = handle[f"{PARTICLES}/image/value"][()].astype(np.float64)
+        edges = handle[f"{PARTICLES}/box/edges/value"][()]
+    lattice = edges if edges.ndim == 3 else edges[:, :, None] * np.eye(3)
+    unwrapped = position.value.astype(np.float64) + np.einsum("tni,tij->tnj", image, lattice)
+    return Series(position.step, position.time, unwrapped)
+
+
 def load(path) -> RunRecord:
     """Scene, checkpointed state (restored through the scene's build()) and every
     observable of a file (state and checkpoint None when it has no checkpoint file)."""

@@ -19,6 +19,14 @@ with the unwrapped chain coordinates (thesis §3.2.4–3.2.5), so no trajectory 
 units).  All work for any number of chains, one included.  The correlators live in
 `SimState.observers`, so they are checkpointed with the state and cost memory
 O(levels · 16 · beads) whatever the run length.
+
+In a Lees–Edwards box the coordinates are unwrapped through the sheared lattice
+(`BoundLeesEdwards.unwrap`), the laboratory-frame path of each particle, so the x
+part of each MSD holds the flow besides diffusion (a Brownian particle starting at
+height y0 from the stagnation plane has ⟨Δx²⟩ = 2Dt + γ̇² y0² t² + (2/3) γ̇² D t³;
+Katayama & Terauti, Eur. J. Phys. 17, 136 (1996)); the y and z parts are
+unaffected.  The run summary therefore reports no D_CM under shear.  The same MSDs
+follow from the file's frames through `jaxdpd.io.reader.read_unwrapped_positions`.
 """
 
 import jax
@@ -38,7 +46,8 @@ SERIES = (*MSD_SERIES, "end_to_end_acf", "positional_acf")
 
 
 def _samples(box, positions, image, block) -> dict:
-    """The block's correlator inputs at one time: name → (C, [M,] 3) array."""
+    """The block's correlator inputs at one time: name → (C, [M,] 3) array (`box`
+    bound to the state's box state)."""
     chains = block.take(box.unwrap(positions, image))
     samples = displacement_samples(chains)
     samples["end_to_end_acf"] = end_to_end_vector(chains)
@@ -50,7 +59,7 @@ def init_chain_correlators(box, positions, image, blocks, levels: int) -> dict:
     """Empty correlators for every block and series (host side, outside jit).
 
     Args:
-        box: the simulation box (for the sample shapes).
+        box: the simulation box bound to the state's box state.
         positions, image: (N, 3) a state's wrapped positions and image counters.
         blocks: the scene's ChainBlocks.
         levels: multiple-tau levels; the longest lag is 15 · 2^(levels − 1) samples.
