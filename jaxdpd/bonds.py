@@ -249,7 +249,7 @@ class ChainBondResult:
         virial: (3, 3) Σ_springs r_ij ⊗ F_ij = −Σ Q ⊗ (T/Q) Q.
         overstretched: bool, some FENE spring at or past its maximum extension.
         past_half_box: bool, some spring cannot be told from its periodic images:
-            in a box whose image counters give no unwrapped coordinates (Lees–Edwards,
+            in a box that reads springs by minimum image (Lees–Edwards,
             Kraynik–Reinelt) it is too long for its minimum image to be certain, or,
             with `half_box_limit`, it is longer than half a box edge along an axis.
     """

@@ -520,8 +520,9 @@ class Scene:
             )
         _check_spring_reach(spring_repulsion, output, neighbors, heights)
         # Springs must stay shorter than half the box where they are read by minimum
-        # image: in a flowing box (its image counters give no unwrapped coordinates)
-        # and by the spring-pair list.  Half the shortest edge, or half the thinnest
+        # image: in a flowing box (Kraynik–Reinelt counters give no unwrapped
+        # coordinates; Lees–Edwards springs keep the minimum image and its continuity
+        # check) and by the spring-pair list.  Half the shortest edge, or half the thinnest
         # Kraynik–Reinelt cell.  A periodic box at rest unwraps them by image counters.
         if (
             box_kind != "periodic"

@@ -225,8 +225,9 @@ class BoundLeesEdwards:
 
     def spring_vectors(self, separation, image_difference):
         """Minimum-image spring vectors (thesis eq. 3.4) and whether any is ambiguous
-        (`springs_past_half_box`): image counters do not give unwrapped coordinates
-        in this box.
+        (`springs_past_half_box`).  The image counters, carried across offset wraps
+        (`carry_images`), would unwrap springs too; the minimum image is kept so that
+        sheared chain trajectories stay as they were.
 
         Args:
             separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
@@ -240,10 +241,9 @@ class BoundLeesEdwards:
     def springs_past_half_box(self, separation, springs, image_difference):
         """Whether some spring has a component beyond SPRING_LIMIT of the box edge.
 
-        Image counters cannot place a partner across the moving boundary (the offset
-        at the crossing is gone), so this box relies on continuity instead: a spring
-        grows by far less than 5 % of an edge per step, so it is caught here before
-        its minimum image becomes ambiguous at one half.
+        Springs are read by minimum image in this box, so it relies on continuity: a
+        spring grows by far less than 5 % of an edge per step, so it is caught here
+        before its minimum image becomes ambiguous at one half.
         """
         del separation, image_difference
         limit = SPRING_LIMIT * self.lengths_array(springs.dtype)
