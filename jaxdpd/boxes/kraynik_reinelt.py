@@ -58,7 +58,7 @@ import numpy as np
 from jax_md import dataclasses as jmd_dataclasses
 
 from jaxdpd.boxes.kraynik_reinelt_lattice import KraynikReineltCase, kraynik_reinelt_case
-from jaxdpd.boxes.lees_edwards import SPRING_LIMIT
+from jaxdpd.boxes.lees_edwards import SPRING_LIMIT, minimum_image_springs
 from jaxdpd.boxes.periodic import fold_edge
 
 # Relative margin taken off the static cell heights for the round-off of a float32
@@ -294,19 +294,7 @@ class BoundKraynikReinelt:
         components = self.separation(tuple(separations[..., axis] for axis in range(3)))
         return jnp.stack(components, axis=-1)
 
-    def spring_vectors(self, separation, image_difference):
-        """Minimum-image spring vectors (thesis eq. 3.4) and whether any is ambiguous
-        (`springs_past_half_box`): image counters do not give unwrapped coordinates
-        in this box.
-
-        Args:
-            separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
-            image_difference: (..., 3) int image counters n_{k+1} − n_k (unused).
-        Returns:
-            (springs (..., 3), bool scalar).
-        """
-        springs = self.minimum_image_vectors(separation)
-        return springs, self.springs_past_half_box(separation, springs, image_difference)
+    spring_vectors = minimum_image_springs
 
     def springs_past_half_box(self, separation, springs, image_difference):
         """Whether some spring's x–z part is longer than SPRING_LIMIT of the thinnest

@@ -51,6 +51,25 @@ SPRING_LIMIT = 0.45
 CLOCK_DTYPE = jnp.float64
 
 
+def minimum_image_springs(box, separation, image_difference):
+    """Minimum-image spring vectors (thesis eq. 3.4) and whether any is ambiguous
+    (`box.springs_past_half_box`): the `spring_vectors` of the flowing boxes.  In a
+    Lees–Edwards box the image counters, carried across offset wraps
+    (`carry_images`), would unwrap springs too; the minimum image is kept so that
+    sheared chain trajectories stay as they were.  Kraynik–Reinelt counters give no
+    unwrapped coordinates.
+
+    Args:
+        box: a LeesEdwardsBox or KraynikReineltBox.
+        separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
+        image_difference: (..., 3) int image counters n_{k+1} − n_k (unused).
+    Returns:
+        (springs (..., 3), bool scalar).
+    """
+    springs = box.minimum_image_vectors(separation)
+    return springs, box.springs_past_half_box(separation, springs, image_difference)
+
+
 @jmd_dataclasses.dataclass
 class LeesEdwardsState:
     """Traced state of a Lees–Edwards box.
@@ -223,20 +242,7 @@ class BoundLeesEdwards:
         components = self.separation(tuple(separations[..., axis] for axis in range(3)))
         return jnp.stack(components, axis=-1)
 
-    def spring_vectors(self, separation, image_difference):
-        """Minimum-image spring vectors (thesis eq. 3.4) and whether any is ambiguous
-        (`springs_past_half_box`).  The image counters, carried across offset wraps
-        (`carry_images`), would unwrap springs too; the minimum image is kept so that
-        sheared chain trajectories stay as they were.
-
-        Args:
-            separation: (..., 3) raw r_{k+1} − r_k of wrapped positions.
-            image_difference: (..., 3) int image counters n_{k+1} − n_k (unused).
-        Returns:
-            (springs (..., 3), bool scalar).
-        """
-        springs = self.minimum_image_vectors(separation)
-        return springs, self.springs_past_half_box(separation, springs, image_difference)
+    spring_vectors = minimum_image_springs
 
     def springs_past_half_box(self, separation, springs, image_difference):
         """Whether some spring has a component beyond SPRING_LIMIT of the box edge.
