@@ -18,7 +18,7 @@ time per unit of simulated time (whole jitted chunks, compilation excluded):
 - MPCD (SRD, ρ = 10 per cell, α = 130°, 6³ cells, Lees–Edwards shear γ̇ = 0.2, cell-
   level Maxwell–Boltzmann thermostat): collision time h, float32/float64.  The shear
   viscosity −⟨P_yx⟩/γ̇ against the analytic SRD result (Mussawisade et al. 2005,
-  eq. 6; `jaxdpd.mpcd.transport.SRDFluid`), itself an approximation (molecular
+  eq. 6; `jaxdpd.solvents.mpcd.transport.SRDFluid`), itself an approximation (molecular
   chaos, number fluctuations neglected), so a resolved deviation may be the
   formula's as much as the simulation's.
 - Lattice Boltzmann (the packaged Kremer–Grest chain of 30 beads, jaxdpd/scenes/
@@ -31,7 +31,7 @@ time per unit of simulated time (whole jitted chunks, compilation excluded):
   ⟨f Q_x Q_y⟩/De (thesis eq. 4.11) against its Δt = 0.01 value.
 
 Every error carries its standard error (20 block averages of the sampled series,
-`jaxdpd.statistics.block_average`; reference errors are added in quadrature).  A
+`jaxdpd.analysis.statistics.block_average`; reference errors are added in quadrature).  A
 setting is *acceptable* when the 2σ upper bound of its relative error is below 1 %;
 the recommended setting of a method and observable is its cheapest acceptable one.
 The cost is also given per element (particle, dumbbell, or lattice node + bead) and
@@ -64,10 +64,11 @@ import numpy as np
 from _common import machine, print_table, write_json
 from timestep_accuracy import measure, sample
 
-from jaxdpd import brownian, errors
-from jaxdpd.mpcd.transport import SRDFluid
+from jaxdpd import brownian
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import errors
 from jaxdpd.scene import Scene
-from jaxdpd.statistics import block_average
+from jaxdpd.solvents.mpcd.transport import SRDFluid
 
 N_BLOCKS = 20
 ACCEPTABLE = 0.01  # relative error bound of an acceptable setting

@@ -16,10 +16,10 @@ from pathlib import Path
 
 from _common import print_table, write_json
 
-from jaxdpd.cli import demo_scene
+from jaxdpd.engine.build import build
 from jaxdpd.io.checkpoint import checkpoint_path
 from jaxdpd.io.h5md import H5MDWriter
-from jaxdpd.simulation import build
+from jaxdpd.run.cli import demo_scene
 
 
 def main() -> None:

@@ -21,8 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 from _common import print_table, write_json
 
+from jaxdpd.analysis.dynamics import time_msd
 from jaxdpd.observables import correlator
-from jaxdpd.observables.dynamics import time_msd
 
 POINTS, AVERAGING = 16, 2
 REPORTED_LAGS = (16, 32, 64, 128, 256, 512, 1024)

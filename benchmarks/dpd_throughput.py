@@ -26,11 +26,11 @@ import jax
 import numpy as np
 from _common import peak_rss_mib, print_table, timed, write_json
 
-from jaxdpd import driver
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
 from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
 
 DENSITY, REPULSION, GAMMA, DT = 3.0, 25.0, 4.5, 0.04
 

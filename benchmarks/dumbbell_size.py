@@ -24,10 +24,10 @@ import time
 import numpy as np
 from _common import print_table, write_json
 
-from jaxdpd import driver
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
 
 B = 50.0
 DENSITY = 3.0

@@ -26,10 +26,11 @@ import jax.numpy as jnp
 import numpy as np
 from _common import write_json
 
-from jaxdpd import ensemble, flows
+from jaxdpd.analysis.statistics import block_average, inverse_variance_mean
+from jaxdpd.engine.build import build
+from jaxdpd.geometry import flows
+from jaxdpd.run import ensemble
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average, inverse_variance_mean
 
 TOTAL = "pressure_tensor"
 PART = "pressure_tensor_part/"

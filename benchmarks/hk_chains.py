@@ -18,7 +18,7 @@ updates over `--steps` updates after `--equilibration`:
                standard error of 20 block averages.
     C(t)       normalised positional autocorrelation, C(t) = ⟨Σ_i u_i(t)·u_i(0)⟩ /
                ⟨Σ_i u_i²⟩, u_i the bead position from the centre of mass, so the
-               unnormalised C(0) is N R_g² (jaxdpd.observables.dynamics, exact FFT);
+               unnormalised C(0) is N R_g² (jaxdpd.analysis.dynamics, exact FFT);
                the trajectory is cut into `--segments` pieces taken as independent
                samples (each ≫ τ1) for the jackknife.
     τ1         the slowest relaxation time: a weighted least-squares line through
@@ -34,7 +34,7 @@ updates over `--steps` updates after `--equilibration`:
                191 (1995)), and the bonded beads also interact through the fluid
                (the Π0 repulsion, the fluid's potential of mean force), so this shows
                how far its chains are from the bare springs' statistics.
-Fits: R_g² ∝ (N − 1)^{2ν} and τ1 ∝ N^α (jaxdpd.observables.fits.fit_power_law,
+Fits: R_g² ∝ (N − 1)^{2ν} and τ1 ∝ N^α (jaxdpd.analysis.fits.fit_power_law,
 weighted by the standard errors).  Rouse: ν = 1/2, α = 2 (1 + 2ν); Zimm with
 ν = 1/2: α = 3/2.  For the dumbbell (N = 2) C(t) = ⟨Q(t)·Q(0)⟩/⟨Q²⟩, a single
 exponential for a Hookean dumbbell in a Markovian bath: its τ from the early window
@@ -56,12 +56,12 @@ import jax.numpy as jnp
 import numpy as np
 from _common import print_table, write_json
 
-from jaxdpd import errors
-from jaxdpd.observables.dynamics import positional_autocorrelation
-from jaxdpd.observables.fits import fit_power_law
+from jaxdpd.analysis.dynamics import positional_autocorrelation
+from jaxdpd.analysis.fits import fit_power_law
+from jaxdpd.analysis.statistics import block_average, ratio_of_means
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import build
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average, ratio_of_means
 
 DENSITY = 3.0
 INITIAL_KT = 0.0016  # the default HK fluid's temperature (jaxdpd.scene)

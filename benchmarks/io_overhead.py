@@ -18,8 +18,8 @@ from pathlib import Path
 
 from _common import peak_rss_mib, print_table, write_json
 
-from jaxdpd.cli import demo_scene
-from jaxdpd.runner import simulate
+from jaxdpd.run.cli import demo_scene
+from jaxdpd.run.runner import simulate
 
 
 def main() -> None:

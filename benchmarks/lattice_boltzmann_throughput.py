@@ -29,11 +29,15 @@ import jax.numpy as jnp
 import numpy as np
 from _common import print_table, timed, write_json
 
-from jaxdpd import driver
-from jaxdpd.lattice_boltzmann import counter_noise
-from jaxdpd.lattice_boltzmann.fluid import FluidParameters, lattice_update, thermal_deviations
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
+from jaxdpd.solvents.lattice_boltzmann import counter_noise
+from jaxdpd.solvents.lattice_boltzmann.fluid import (
+    FluidParameters,
+    lattice_update,
+    thermal_deviations,
+)
 
 VALUES_PER_UPDATE = 19 + 19 + 3 + 3
 CHAIN_SCENE = resources.files("jaxdpd.scenes").joinpath("lb_chain.toml")

@@ -8,7 +8,7 @@ Groot–Warren and Lowe–Andersen chunks are timed in turn, `--repeats` times, 
 fastest of each is kept, so the ratios compare like with like on a shared machine.
 
 Reported per p: the parallel rounds per step of the exact sequential sweep (mean and
-largest; jaxdpd.thermostats.lowe_andersen), the pairs thermalised per step and per
+largest; jaxdpd.solvents.lowe_andersen), the pairs thermalised per step and per
 particle, the kinetic temperature, and the cost of a step relative to a Groot–Warren
 step of the same system.
 
@@ -26,10 +26,10 @@ import jax
 import numpy as np
 from _common import peak_rss_mib, print_table, timed, write_json
 
-from jaxdpd import driver
+from jaxdpd.engine.build import build
 from jaxdpd.observables.thermo import temperature
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 DENSITY, REPULSION, GAMMA, DT = 3.0, 25.0, 4.5, 0.01
 

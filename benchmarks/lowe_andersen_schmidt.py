@@ -3,7 +3,7 @@
 System: ρ = 3, a = 25, k_BT = 1, Δt = 0.01, r_T = r_c = 1, N particles in a periodic
 box, for each bath collision frequency Γ (ΓΔt ≤ 1).
 
-- Shear viscosity by Green–Kubo (jaxdpd.observables.green_kubo), η = (V/k_BT)
+- Shear viscosity by Green–Kubo (jaxdpd.analysis.green_kubo), η = (V/k_BT)
   ∫₀^t_max ⟨P_αβ(0) P_αβ(t)⟩ dt over the off-diagonal components of the full
   pressure tensor (kinetic, conservative and Lowe–Andersen impulse parts, thesis
   eq. 3.47).  The
@@ -13,7 +13,7 @@ box, for each bath collision frequency Γ (ΓΔt ≤ 1).
   computed on `--blocks` consecutive blocks of the run; the mean and its standard
   error over the blocks are reported.
 - Self-diffusion D from the particles' mean-square displacement, D = slope/6 for
-  lags beyond 2 time units (jaxdpd.observables.dynamics.diffusion_coefficient; the
+  lags beyond 2 time units (jaxdpd.analysis.dynamics.diffusion_coefficient; the
   error counts particles as independent, which they are not quite).
 - Schmidt number Sc = η/(ρ m D) (kinematic viscosity over self-diffusion).
 
@@ -21,7 +21,7 @@ Compared with Lowe's estimate of the thermostat's viscosity, η_L = π ρ² Γ r
 (Lowe, Europhys. Lett. 47, 145 (1999); thesis eq. 2.23), and with the expected
 trends η ∝ Γ, D ∝ 1/Γ, Sc ∝ Γ² at small ΓΔt (thesis §2.3.2, fig. 2-2, from
 Symeonidis et al.; screening at large ΓΔt bends Sc below Γ²).  Power laws are
-fitted to η(Γ), D(Γ) and Sc(Γ) (jaxdpd.observables.fits.fit_power_law).
+fitted to η(Γ), D(Γ) and Sc(Γ) (jaxdpd.analysis.fits.fit_power_law).
 
 Usage:
     python benchmarks/lowe_andersen_schmidt.py [--frequencies 10 25 50 100]
@@ -36,13 +36,13 @@ import jax
 import numpy as np
 from _common import print_table, write_json
 
-from jaxdpd import driver
-from jaxdpd.observables.dynamics import bead_msd, diffusion_coefficient
-from jaxdpd.observables.fits import fit_power_law
-from jaxdpd.observables.green_kubo import running_integral, shear_viscosity
+from jaxdpd.analysis.dynamics import bead_msd, diffusion_coefficient
+from jaxdpd.analysis.fits import fit_power_law
+from jaxdpd.analysis.green_kubo import running_integral, shear_viscosity
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
 
 DENSITY, REPULSION, DT, KT = 3.0, 25.0, 0.01, 1.0
 CHUNK = 100  # steps between stored positions (1 time unit)

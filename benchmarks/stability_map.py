@@ -6,7 +6,7 @@ velocities, which the flow raises (the flow-curve notebook measures k_BT = 1.48 
 with the Lowe–Andersen thermostat at Δt = 0.01 (error below 0.5 % at every rate,
 thesis §4.3.1) and stays below γ̇ ≈ 0.3, above which the simple DPD fluid stops
 behaving like a fluid (thesis §4.2.7).  This script measures, for each solvent, the
-temperature at each (γ̇, Δt) of a grid and whether jaxdpd.temperature_check flags it
+temperature at each (γ̇, Δt) of a grid and whether jaxdpd.analysis.temperature_check flags it
 (more than 3 % and 3 standard errors off), or the run stops (error flags).
 
 Fluids (ρ = 3, a = 25, k_BT = 1, N = 375 in a 5³ Lees–Edwards box, float64):
@@ -29,12 +29,12 @@ import jax.numpy as jnp
 import numpy as np
 from _common import print_table, write_json
 
-from jaxdpd import driver
-from jaxdpd.errors import SimulationError
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.analysis.temperature_check import is_off
+from jaxdpd.engine.build import build
+from jaxdpd.engine.errors import SimulationError
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
-from jaxdpd.temperature_check import is_off
 
 SHEAR_RATES = (0.0, 0.3, 1.0, 2.0)
 TIME_STEPS = (0.01, 0.02, 0.04, 0.06, 0.1)
@@ -114,7 +114,9 @@ def main() -> None:
                 print_table(list(row), [row])
     print()
     for solvent in SOLVENTS:
-        print(f"{solvent}: k_BT (* = flagged by jaxdpd.temperature_check, X = run stopped)")
+        print(
+            f"{solvent}: k_BT (* = flagged by jaxdpd.analysis.temperature_check, X = run stopped)"
+        )
         header = ["dt \\ shear_rate", *(f"{rate:g}" for rate in SHEAR_RATES)]
         table = []
         for dt in TIME_STEPS:

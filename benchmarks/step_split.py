@@ -18,7 +18,7 @@ import jax.numpy as jnp
 from _common import print_table, timed, write_json
 from dpd_throughput import equilibrated_fluid
 
-from jaxdpd import driver
+from jaxdpd.run import driver
 
 
 def best_seconds(function, argument, repeats: int) -> float:

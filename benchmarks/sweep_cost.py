@@ -1,12 +1,12 @@
-"""Cost of a B-replica shear-rate sweep (jaxdpd.ensemble) against B single runs.
+"""Cost of a B-replica shear-rate sweep (jaxdpd.run.ensemble) against B single runs.
 
 The same scene (a sheared Groot–Warren DPD fluid: ρ = 3, a = 25, γ = 4.5, Δt = 0.04,
 λ = 0.65, float32, Lees–Edwards box) is run two ways for B ∈ {1, 4, 16} replicas,
 each replica with its own shear rate and seed:
 
-- singles: B runs one after the other with jaxdpd.driver (one compiled chunk shared
+- singles: B runs one after the other with jaxdpd.run.driver (one compiled chunk shared
   by all of them);
-- sweep: one vmapped batch of B replicas with jaxdpd.ensemble (one compiled chunk
+- sweep: one vmapped batch of B replicas with jaxdpd.run.ensemble (one compiled chunk
   per B, since the batch shape is static).
 
 Compilation is timed separately: the first chunk of each program is run once before
@@ -28,9 +28,9 @@ import jax
 import numpy as np
 from _common import peak_rss_mib, print_table, timed, write_json
 
-from jaxdpd import driver, ensemble
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver, ensemble
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 
 def sheared_fluid(particles: int) -> Scene:

@@ -75,7 +75,8 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 kind = "tagged": amplitude F, species = name: f_x = F on each of the
                 k particles of that species, −k F/(N − k) on every other one (drag
                 coefficient, thesis §4.2.4)
-    [spring_repulsion] between the springs of all chains (thesis §5.2; jaxdpd.segments):
+    [spring_repulsion] between the springs of all chains (thesis §5.2;
+                jaxdpd.forces.spring_repulsion):
                 law = "exponential" (A = 100 k_BT, alpha = 10/r_c; Kumar–Larson eq. 5.6)
                 | "linear" (a, force 3a(1 − D/range) at contact distance D; Pan–Manke
                 eq. 5.5); range = r_c/3 > 0; distance_floor = 0.001 r_c (≥ 0, < range);
@@ -112,9 +113,9 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 from fractions import Fraction
 
-from jaxdpd.boxes import make_box
-from jaxdpd.mpcd.cells import collision_grid
-from jaxdpd.segments import SPRING_REPULSION_LAWS
+from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
+from jaxdpd.geometry.boxes import make_box
+from jaxdpd.solvents.mpcd.cells import collision_grid
 from jaxdpd.validation import (
     REQUIRED,
     check_keys,
@@ -293,7 +294,7 @@ class Polymer:
 
 @dataclass(frozen=True)
 class BodyForce:
-    """An external force on every particle (jaxdpd.forcing).
+    """An external force on every particle (jaxdpd.forces.body_forces).
 
     Attributes:
         kind: "cosine": f_x = amplitude cos(2π waves y / L_y); "tagged": f_x =
@@ -311,7 +312,7 @@ class BodyForce:
 
 @dataclass(frozen=True)
 class SpringRepulsion:
-    """Repulsion between the springs of every chain (jaxdpd.segments).
+    """Repulsion between the springs of every chain (jaxdpd.forces.spring_repulsion).
 
     Attributes:
         law: "exponential" or "linear".

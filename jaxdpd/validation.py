@@ -52,7 +52,7 @@ def read_number(
     """A real (or integer) field within [minimum, maximum] (minimum exclusive on request).
 
     An integer field without a `maximum` is bounded by INT32_MAX: counts, sizes and
-    step numbers enter int32 arithmetic on the device (jaxdpd.resources).
+    step numbers enter int32 arithmetic on the device (jaxdpd.run.resources).
     """
     name = _field(path, key)
     if not _present(section, key, path, default):

@@ -23,7 +23,7 @@ import signal
 import sys
 from pathlib import Path
 
-from jaxdpd.cli import main
+from jaxdpd.run.cli import main
 
 TEMPORARY = ".checkpoint.tmp"
 

@@ -23,7 +23,7 @@ import numpy as np
 from jaxdpd.io import read_checkpoint, read_observables, read_state, read_trajectory
 from jaxdpd.io.checkpoint import checkpoint_path
 from jaxdpd.io.reader import open_run_file
-from jaxdpd.runner import simulate
+from jaxdpd.run.runner import simulate
 from jaxdpd.scene import Scene
 
 # 375 particles (a 5³ box at ρ = 3), float64, in Lees–Edwards shear (a box state in

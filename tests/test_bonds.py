@@ -1,6 +1,6 @@
 """Bond laws: forces are −∇U (autodiff), Newton's third law, FENE limits.
 
-Reference: each law's potential as written in jaxdpd.bonds (thesis eqs. 2.25, 2.26;
+Reference: each law's potential as written in jaxdpd.forces.bonds (thesis eqs. 2.25, 2.26;
 Mussawisade et al. eq. 4; Ahlrichs & Dünweg eq. 8).
 """
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd import bonds
-from jaxdpd.boxes import PeriodicBox, make_box
-from jaxdpd.topology import ChainBlock, chain_coordinates
+from jaxdpd.forces import bonds
+from jaxdpd.geometry.boxes import PeriodicBox, make_box
+from jaxdpd.geometry.chain_topology import ChainBlock, chain_coordinates
 
 LAWS = {
     "hookean": bonds.hookean(2.0, kT=1.0),
@@ -135,7 +135,7 @@ def test_placement_lengths():
 
 
 def test_harmonic_is_the_fraenkel_law_under_its_md_name():
-    """U = ½ k (Q − r0)² under both names (jaxdpd.bonds docstring)."""
+    """U = ½ k (Q − r0)² under both names (jaxdpd.forces.bonds docstring)."""
     parameters = {"spring_constant": 30.0, "rest_length": 0.8}
     harmonic = bonds.bond_law({"law": "harmonic", **parameters}, kT=1.0)
     fraenkel = bonds.bond_law({"law": "fraenkel", **parameters}, kT=1.0)

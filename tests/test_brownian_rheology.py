@@ -20,6 +20,7 @@ import pytest
 from scipy.linalg import solve_discrete_lyapunov
 
 import jaxdpd  # noqa: F401
+from jaxdpd.analysis.statistics import block_average
 from jaxdpd.brownian import (
     FENE,
     Hookean,
@@ -31,7 +32,6 @@ from jaxdpd.brownian import (
     state_from_connectors,
     velocity_gradient,
 )
-from jaxdpd.statistics import block_average
 
 B = 50.0
 FENE_DT_BIAS = 2e-3  # relative, at dt <= 0.02 (see module docstring)

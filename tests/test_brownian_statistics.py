@@ -1,4 +1,4 @@
-"""Block averages (jaxdpd.statistics) against exact results for an AR(1) process."""
+"""Block averages (jaxdpd.analysis.statistics) against exact results for an AR(1) process."""
 
 import jax
 import jax.numpy as jnp
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import jaxdpd  # noqa: F401  (enables x64)
-from jaxdpd.statistics import block_average, blocking_analysis
+from jaxdpd.analysis.statistics import block_average, blocking_analysis
 
 
 def _ar1(key, n_series, length, phi, dtype=jnp.float64):

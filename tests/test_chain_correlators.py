@@ -3,9 +3,9 @@
 Reference: at lags below the correlator's first coarse-grained level (0 … 15 samples)
 the multiple-tau estimator is the plain all-origins average (Ramírez et al., J. Chem.
 Phys. 133, 154103 (2010)), so it must equal the FFT estimators of
-jaxdpd.observables.dynamics applied to the same samples stored on the host, to float64
+jaxdpd.analysis.dynamics applied to the same samples stored on the host, to float64
 round-off (relative 1e-9 allows for the different summation orders).  Observers of a
-batch (jaxdpd.ensemble) are those of its replicas run one by one (same seeds; vmapping
+batch (jaxdpd.run.ensemble) are those of its replicas run one by one (same seeds; vmapping
 may reorder sums, so to round-off, 1e-9).
 """
 
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from jaxdpd import driver, ensemble
-from jaxdpd.observables import conformation, dynamics
+from jaxdpd.analysis import conformation, dynamics
+from jaxdpd.engine.build import build
 from jaxdpd.observables.chain_correlators import chain_correlations, positional_autocorrelation
-from jaxdpd.simulation import build
+from jaxdpd.run import driver, ensemble
 
 EVERY = 4
 SAMPLES = 40

@@ -1,8 +1,8 @@
-"""Traced model parameters and the sensitivity estimators of jaxdpd.dpd_fit.
+"""Traced model parameters and the sensitivity estimators of jaxdpd.studies.dpd_fit.
 
 References:
 - each bond law bound to traced values equals the law built from the same numbers
-  (jaxdpd.bonds, exact to round-off);
+  (jaxdpd.forces.bonds, exact to round-off);
 - the canonical fluctuation formula d⟨A⟩/dθ = −(⟨A U_θ⟩ − ⟨A⟩⟨U_θ⟩)/k_BT on samples
   drawn exactly from the Boltzmann distribution of free FENE springs, whose
   ⟨Q²⟩ = 3 Q0²/(b + 5), b = H Q0²/k_BT (thesis eq. 4.8), gives
@@ -22,18 +22,19 @@ import pytest
 from dumbbell_scenes import dumbbell_solution, sheared_solution_with_tracers
 
 import jaxdpd  # noqa: F401  (float64)
-from jaxdpd import bonds, driver, ensemble
 from jaxdpd import brownian as bd
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.dpd_fit import (
+from jaxdpd.engine.build import build
+from jaxdpd.engine.parameters import with_parameters
+from jaxdpd.forces import bonds
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.run import driver, ensemble
+from jaxdpd.studies.dpd_fit import (
     canonical_sensitivity,
     fit_bond_parameter,
     independent_spring_sensitivity,
     measure_sensitivity,
     sensitivity_simulation,
 )
-from jaxdpd.parameters import with_parameters
-from jaxdpd.simulation import build
 
 SIGMAS = 4.0
 LAWS = {
@@ -139,7 +140,7 @@ def test_with_parameters_refuses_unknown_keys_and_other_dtypes():
 
 
 def make_state_like():
-    from jaxdpd.state import SimState
+    from jaxdpd.engine.state import SimState
 
     parameters = {
         "bond": {

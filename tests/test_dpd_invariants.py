@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from conftest import make_scene, scene_dict
 
-from jaxdpd import driver
-from jaxdpd.pairs import soft_repulsion_energy
+from jaxdpd.engine.build import build
+from jaxdpd.forces.pair_laws import soft_repulsion_energy
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 
 def advance(scene, steps, chunk=None):

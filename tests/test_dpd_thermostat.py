@@ -4,9 +4,9 @@ import numpy as np
 from conftest import make_scene
 from scipy import stats
 
-from jaxdpd import driver
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 
 # Thesis §2.2.1 (Groot and Warren, J. Chem. Phys. 107, 4423 (1997)): with their
 # modified velocity Verlet at λ = 0.65 and σ = 3 the temperature deviates from its set

@@ -23,13 +23,13 @@ from conftest import make_scene
 from dumbbell_scenes import dumbbell_solution
 
 import jaxdpd  # noqa: F401  (float64)
-from jaxdpd import driver
-from jaxdpd.forcing import tagged_body_force
+from jaxdpd.analysis.dynamics import diffusion_coefficient, time_msd
+from jaxdpd.engine.build import build
+from jaxdpd.forces.body_forces import tagged_body_force
 from jaxdpd.observables.drag import einstein_drag, giesekus_drag, tagged_drag
-from jaxdpd.observables.dynamics import diffusion_coefficient, time_msd
-from jaxdpd.sampling import collect
+from jaxdpd.run import driver
+from jaxdpd.run.series import collect
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 SIGMAS = 4.0
 

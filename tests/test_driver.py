@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from jaxdpd import driver
-from jaxdpd.errors import SimulationError
+from jaxdpd.engine.build import build
+from jaxdpd.engine.errors import SimulationError
 from jaxdpd.io.h5md import read_checkpoint
-from jaxdpd.runner import simulate
-from jaxdpd.simulation import build
+from jaxdpd.run import driver
+from jaxdpd.run.runner import simulate
 
 
 def test_overflowing_chunk_is_rerun_from_its_start_with_larger_buffers():

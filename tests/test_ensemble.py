@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 from conftest import make_scene
 
-from jaxdpd import driver, ensemble
-from jaxdpd.simulation import build
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver, ensemble
 
 RATES = [0.0, 0.3, 0.6]
 SEEDS = [21, 22, 23]
@@ -63,8 +63,8 @@ SHARDED = textwrap.dedent(
     """
     import numpy as np, jax
     from conftest import make_scene
-    from jaxdpd import ensemble
-    from jaxdpd.simulation import build
+    from jaxdpd.run import ensemble
+    from jaxdpd.engine.build import build
     from test_ensemble import RATES, SEEDS, sweep_scene
     assert jax.local_device_count() == 2, jax.local_devices()
     simulation = build(sweep_scene())

@@ -24,9 +24,9 @@ from pathlib import Path
 import pytest
 from io_runs import POLYMER_SCENE_TOML, assert_same_run, polymer_reference_run
 
-from jaxdpd.cli import main
 from jaxdpd.io import read_checkpoint
 from jaxdpd.io.checkpoint import checkpoint_path
+from jaxdpd.run.cli import main
 
 TESTS = Path(__file__).resolve().parent
 pytestmark = [

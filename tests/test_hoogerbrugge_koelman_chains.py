@@ -10,13 +10,14 @@ et al. vol. 2); momentum conservation of pair impulses with symmetric noise.
 import numpy as np
 import pytest
 
-from jaxdpd import driver, errors
-from jaxdpd.errors import SimulationError
+from jaxdpd.analysis.statistics import ratio_of_means
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import build
+from jaxdpd.engine.errors import SimulationError
 from jaxdpd.observables.thermo import reduce_samples
-from jaxdpd.runner import simulate
+from jaxdpd.run import driver
+from jaxdpd.run.runner import simulate
 from jaxdpd.scene import HOOGERBRUGGE_KOELMAN_KT, Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import ratio_of_means
 
 WEAK = {"law": "hookean", "spring_constant": 0.006}  # Schlijper et al.'s weak spring
 STRONG = {"law": "fraenkel", "spring_constant": 0.25, "rest_length": 0.85}
@@ -109,7 +110,7 @@ def test_runaway_is_measured_against_initial_kT():
 
 
 def run_series(scene, steps, equilibration):
-    """(final state, series) of `steps` steps after `equilibration` (jaxdpd.driver)."""
+    """(final state, series) of `steps` steps after `equilibration` (jaxdpd.run.driver)."""
     simulation = build(scene)
     state = driver.run(simulation, simulation.init_fn(), equilibration, equilibration)
     state, samples, _ = driver.run_chunk(simulation, state, steps)

@@ -11,10 +11,10 @@ from io_runs import (
     reference_run,
 )
 
-from jaxdpd import cli
-from jaxdpd.cli import demo_scene, main
+from jaxdpd.analysis.statistics import block_average
 from jaxdpd.io import load, read_checkpoint, read_observable, read_scene, read_trajectory
-from jaxdpd.statistics import block_average
+from jaxdpd.run import cli
+from jaxdpd.run.cli import demo_scene, main
 
 
 def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint():
@@ -94,7 +94,7 @@ def test_load_gives_back_scene_state_and_every_observable():
 
 
 def test_streamed_block_averages_equal_those_of_the_stored_series():
-    """The summary's running block sums (jaxdpd.running_averages) against
+    """The summary's running block sums (jaxdpd.analysis.running_averages) against
     statistics.block_average of the whole series read back from the file: same
     blocks, float64 sums in another order, so equal to round-off (1e-12 relative)."""
     reference = reference_run()

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from io_runs import SCENE_TOML, copy_run, reference_run
 
-from jaxdpd.cli import main
 from jaxdpd.io import RunFileError, load, read_checkpoint, read_scene, read_state, write_tree
 from jaxdpd.io.checkpoint import checkpoint_path
+from jaxdpd.run.cli import main
 
 
 def _flip_byte(path, offset: int) -> None:

@@ -18,7 +18,7 @@ chunk, a checkpoint every 5), between chunk 40 and chunk 120 (80 chunks):
 import numpy as np
 from io_runs import MEMORY_WINDOW, MemoryProbe, reference_run
 
-from jaxdpd.runner import simulate
+from jaxdpd.run.runner import simulate
 
 
 def _window_bounds(scene, probe) -> float:

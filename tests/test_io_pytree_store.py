@@ -17,8 +17,8 @@ from conftest import make_scene
 from io_runs import assert_same_leaves, reference_run
 from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd.engine.build import build
 from jaxdpd.io import RunFileError, read_checkpoint, read_state, read_tree, write_tree
-from jaxdpd.simulation import build
 
 
 class Lattice(enum.Enum):

@@ -19,9 +19,9 @@ import pytest
 from test_lees_edwards_geometry import CUTOFF, listed_pairs
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd.boxes import KraynikReineltBox
-from jaxdpd.boxes.kraynik_reinelt_lattice import kraynik_reinelt_case, stretch
-from jaxdpd.neighbors.cell_list import cell_list_search
+from jaxdpd.geometry.boxes import KraynikReineltBox
+from jaxdpd.geometry.boxes.kraynik_reinelt_lattice import kraynik_reinelt_case, stretch
+from jaxdpd.geometry.neighbors.cell_list import cell_list_search
 
 LENGTHS = (6.0, 4.0, 6.0)
 N = 300
@@ -268,7 +268,7 @@ def within_pairs(positions, lattice, cutoff):
 
 
 def test_skin_criterion_never_misses_a_pair_while_the_lattice_deforms():
-    """Verlet-list soundness (jaxdpd.neighbors.pair_list.needs_rebuild with
+    """Verlet-list soundness (jaxdpd.geometry.neighbors.pair_list.needs_rebuild with
     `image_drift`): pairs within r_c + skin are listed at a reference strain; the
     lattice then deforms through a strain Δε while the particles move by random
     displacements, either streaming with the lattice or not at all (the criterion
@@ -277,7 +277,7 @@ def test_skin_criterion_never_misses_a_pair_while_the_lattice_deforms():
     the drift term do miss pairs, so they reach the regime where the term matters."""
     from types import SimpleNamespace
 
-    from jaxdpd.neighbors.pair_list import needs_rebuild
+    from jaxdpd.geometry.neighbors.pair_list import needs_rebuild
 
     box = KraynikReineltBox((4.5, 3.0, 4.5), 1.0, 1)
     skin, n = 0.4, 120

@@ -1,4 +1,4 @@
-"""Beads coupled to the lattice-Boltzmann fluid (jaxdpd.lattice_boltzmann.coupling,
+"""Beads coupled to the lattice-Boltzmann fluid (jaxdpd.solvents.lattice_boltzmann.coupling,
 .integrator): interpolation, drag against the lattice theory, equipartition, momentum."""
 
 import copy
@@ -9,18 +9,23 @@ import numpy as np
 import pytest
 from lattice_boltzmann_scenes import lb_chain_scene
 
-from jaxdpd import driver, errors
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.lattice_boltzmann import fluid_parameters, linear_theory
-from jaxdpd.lattice_boltzmann.coupling import interpolate, spread, trilinear_stencil
-from jaxdpd.lattice_boltzmann.fluid import FluidParameters, mass_and_momentum
-from jaxdpd.lattice_boltzmann.integrator import coupled_step, fluid_momentum, initial_fluid_state
-from jaxdpd.lattice_boltzmann.lattice import WEIGHTS
-from jaxdpd.neighbors import PairList
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import build
+from jaxdpd.engine.state import SimState
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.geometry.neighbors import PairList
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.state import SimState
-from jaxdpd.statistics import block_average
+from jaxdpd.solvents.lattice_boltzmann import fluid_parameters, linear_theory
+from jaxdpd.solvents.lattice_boltzmann.coupling import interpolate, spread, trilinear_stencil
+from jaxdpd.solvents.lattice_boltzmann.fluid import FluidParameters, mass_and_momentum
+from jaxdpd.solvents.lattice_boltzmann.integrator import (
+    coupled_step,
+    fluid_momentum,
+    initial_fluid_state,
+)
+from jaxdpd.solvents.lattice_boltzmann.lattice import WEIGHTS
 
 
 def test_trilinear_stencil_interpolates_linear_fields_and_spreads_adjointly():

@@ -1,5 +1,5 @@
 """The fluctuating lattice-Boltzmann fluid: lattice, viscosities, fluctuations, lattice
-Stokeslet (jaxdpd.lattice_boltzmann.lattice, .fluid, .linear_theory)."""
+Stokeslet (jaxdpd.solvents.lattice_boltzmann.lattice, .fluid, .linear_theory)."""
 
 import functools
 
@@ -9,15 +9,16 @@ import numpy as np
 import pytest
 from scipy.optimize import curve_fit
 
-from jaxdpd.lattice_boltzmann import counter_noise, linear_theory
-from jaxdpd.lattice_boltzmann.fluid import (
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.solvents.lattice_boltzmann import counter_noise, linear_theory
+from jaxdpd.solvents.lattice_boltzmann.fluid import (
     FluidParameters,
     equilibrium_deviations,
     lattice_update,
     modes,
     thermal_deviations,
 )
-from jaxdpd.lattice_boltzmann.lattice import (
+from jaxdpd.solvents.lattice_boltzmann.lattice import (
     INVERSE_MODE_BASIS,
     MODE_BASIS,
     MODE_NORMS,
@@ -25,7 +26,6 @@ from jaxdpd.lattice_boltzmann.lattice import (
     VELOCITIES,
     WEIGHTS,
 )
-from jaxdpd.statistics import block_average
 
 
 def test_d3q19_lattice_tensors_and_orthogonal_modes():
@@ -211,7 +211,7 @@ def test_fluid_modes_obey_equipartition(precision, noise_law):
     and momentum are exactly fixed, so conserved modes carry a factor 1 − 1/N_nodes.
 
     8³ nodes, 2000 steps after starting in equilibrium; means and standard errors
-    from 20 time blocks (jaxdpd.statistics.block_average).  Each variance must match
+    from 20 time blocks (jaxdpd.analysis.statistics.block_average).  Each variance must match
     within 4 standard errors (~0.6 % each; with 19 modes a 4σ band fails by chance
     with probability ~1e-3); the correlation coefficients of distinct modes within
     4/√(samples) of 0.  The thermal Mach number² k_BT/(ρ₀a³c_s²) = 3e-4 bounds the

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 from lattice_boltzmann_scenes import LB_CHAIN, lb_chain_scene
 
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
-from jaxdpd.neighbors import PairList, neighbor_search
+from jaxdpd.forces.pair_laws import WCA_RANGE_FACTOR, wca_energy, wca_force_over_distance, wca_term
+from jaxdpd.forces.pair_sums import accumulate, pair_geometry
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.geometry.chain_topology import chain_blocks
+from jaxdpd.geometry.neighbors import PairList, neighbor_search
+from jaxdpd.geometry.placement import initial_configuration
 from jaxdpd.observables.thermo import temperature
-from jaxdpd.pairs import WCA_RANGE_FACTOR, wca_energy, wca_force_over_distance, wca_term
-from jaxdpd.pairwise import accumulate, pair_geometry
-from jaxdpd.placement import initial_configuration
 from jaxdpd.scene import Scene
-from jaxdpd.topology import chain_blocks
+from jaxdpd.solvents.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
 
 LATTICE_SCENE = lb_chain_scene(
     precision="float64",

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd.boxes import LeesEdwardsBox
-from jaxdpd.neighbors.cell_list import cell_list_search
-from jaxdpd.pairwise import pair_geometry
+from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.geometry.boxes import LeesEdwardsBox
+from jaxdpd.geometry.neighbors.cell_list import cell_list_search
 
 LENGTHS = (7.0, 6.0, 5.0)  # L_x ≠ L_y: the tilt reaches L_x/(2 L_y) = 0.58
 CUTOFF = 1.0
@@ -147,8 +147,9 @@ def test_dpd_forces_across_the_moving_boundary_use_laboratory_velocities():
     positions of step 1 with the velocities of step 0, both known here."""
     from conftest import make_scene
 
-    from jaxdpd import driver, noise
-    from jaxdpd.simulation import build
+    from jaxdpd.engine import noise
+    from jaxdpd.engine.build import build
+    from jaxdpd.run import driver
 
     shear_rate, gamma, a = 0.7, 4.5, 25.0
     scene = make_scene(

@@ -15,13 +15,13 @@ import pytest
 from conftest import scene_dict
 from io_runs import polymer_reference_run, reference_run
 
-from jaxdpd.boxes.lees_edwards import LeesEdwardsBox
+from jaxdpd.analysis import dynamics
+from jaxdpd.engine.build import build
+from jaxdpd.geometry.boxes.lees_edwards import LeesEdwardsBox
 from jaxdpd.io.reader import read_trajectory, read_unwrapped_positions
-from jaxdpd.observables import dynamics
 from jaxdpd.observables.chain_correlators import chain_correlations
-from jaxdpd.runner import simulate
+from jaxdpd.run.runner import simulate
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 EVERY = 4
 SHEAR_RATE = 1.0

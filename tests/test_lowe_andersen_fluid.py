@@ -10,12 +10,13 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from jaxdpd import driver, noise
-from jaxdpd.pairs import soft_repulsion
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import noise
+from jaxdpd.engine.build import build
+from jaxdpd.forces.pair_laws import soft_repulsion
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
-from jaxdpd.thermostats import lowe_andersen as la
+from jaxdpd.solvents import lowe_andersen as la
 
 KT, DT, REPULSION = 1.0, 0.01, 25.0
 FENE = {"law": "fene", "spring_constant": 8.0, "max_extension": 2.5}  # b = H Q0²/kT = 50

@@ -3,8 +3,8 @@
 import pytest
 from conftest import scene_dict
 
+from jaxdpd.engine.build import thermalization_cutoff
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import thermalization_cutoff
 
 LOWE_ANDERSEN = {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 50.0}
 

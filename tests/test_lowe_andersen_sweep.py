@@ -16,9 +16,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxdpd import noise
-from jaxdpd.boxes import LeesEdwardsBox, PeriodicBox
-from jaxdpd.thermostats import lowe_andersen as la
+from jaxdpd.engine import noise
+from jaxdpd.geometry.boxes import LeesEdwardsBox, PeriodicBox
+from jaxdpd.solvents import lowe_andersen as la
 
 N, DENSITY, KT, DT, CUTOFF = 240, 3.0, 1.3, 0.01, 1.0
 SIDE = (N / DENSITY) ** (1 / 3)

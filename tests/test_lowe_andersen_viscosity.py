@@ -12,11 +12,11 @@ import pytest
 from conftest import scene_dict
 from scipy import signal
 
-from jaxdpd import driver
-from jaxdpd.observables.green_kubo import running_integral, shear_viscosity
+from jaxdpd.analysis.green_kubo import running_integral, shear_viscosity
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
 
 
 def autoregressive_stress(length: int, phi: float, rng):

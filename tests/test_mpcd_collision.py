@@ -16,11 +16,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd import noise
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.mpcd import transport
-from jaxdpd.mpcd.cells import bin_particles, collision_grid, grid_shift
-from jaxdpd.mpcd.collision import (
+from jaxdpd.engine import noise
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.solvents.mpcd import transport
+from jaxdpd.solvents.mpcd.cells import bin_particles, collision_grid, grid_shift
+from jaxdpd.solvents.mpcd.collision import (
     maxwell_boltzmann_scaling,
     random_axes,
     rotate,

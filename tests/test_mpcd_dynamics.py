@@ -14,15 +14,16 @@ import pytest
 from mpcd_scenes import polymer_solution
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd import driver, errors
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.integrators import mpcd_cycle
-from jaxdpd.mpcd.cells import collision_grid
-from jaxdpd.mpcd.collision import srd_collision
-from jaxdpd.observables.dynamics import time_autocorrelation
+from jaxdpd.analysis.dynamics import time_autocorrelation
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import build
+from jaxdpd.engine.integrators import mpcd_cycle
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.solvents.mpcd.cells import collision_grid
+from jaxdpd.solvents.mpcd.collision import srd_collision
 
 HOOKEAN = 3.0  # H = 3 k_BT/l² with l = 1 (seed eq. 3), as in tests/mpcd_scenes.py
 

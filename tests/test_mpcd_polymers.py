@@ -18,12 +18,12 @@ import pytest
 from mpcd_scenes import polymer_solution
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd import driver
-from jaxdpd.mpcd import transport
-from jaxdpd.observables.dynamics import center_of_mass_msd, center_of_mass_vacf
+from jaxdpd.analysis.dynamics import center_of_mass_msd, center_of_mass_vacf
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.solvents.mpcd import transport
 
 H = 0.1  # collision time
 

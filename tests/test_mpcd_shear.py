@@ -19,14 +19,14 @@ import pytest
 from mpcd_scenes import polymer_solution, pure_solvent
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd import driver
-from jaxdpd.integrators import free_flight_stress
-from jaxdpd.mpcd.transport import SRDFluid
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.engine.integrators import free_flight_stress
 from jaxdpd.observables.profiles import slab_centres
 from jaxdpd.observables.transverse_current import kinematic_viscosity
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.solvents.mpcd.transport import SRDFluid
 
 SHEAR_RATE = 0.1
 

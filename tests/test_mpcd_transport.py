@@ -19,15 +19,16 @@ import pytest
 from mpcd_scenes import pure_solvent
 
 import jaxdpd  # noqa: F401  (enables float64)
-from jaxdpd import driver, noise
-from jaxdpd.boxes import LeesEdwardsBox, PeriodicBox
-from jaxdpd.mpcd import transport
-from jaxdpd.mpcd.cells import bin_particles, collision_grid
-from jaxdpd.mpcd.collision import collisional_virial, srd_relative_velocities
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import noise
+from jaxdpd.engine.build import build
+from jaxdpd.geometry.boxes import LeesEdwardsBox, PeriodicBox
 from jaxdpd.observables.transverse_current import kinematic_viscosity
+from jaxdpd.run import driver
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.solvents.mpcd import transport
+from jaxdpd.solvents.mpcd.cells import bin_particles, collision_grid
+from jaxdpd.solvents.mpcd.collision import collisional_virial, srd_relative_velocities
 
 
 def _solvent_scene(

@@ -9,8 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxdpd.analysis.dynamics import time_msd
 from jaxdpd.observables import correlator
-from jaxdpd.observables.dynamics import time_msd
 
 POINTS, AVERAGING, LEVELS = 8, 2, 4
 # One jitted function for the whole file, so equal shapes compile once.

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import scene_dict
 
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.neighbors import neighbor_search
-from jaxdpd.neighbors.cell_list import cell_grid, crowd_capacity, dense_tier
-from jaxdpd.pairwise import pair_geometry
+from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.geometry.neighbors import neighbor_search
+from jaxdpd.geometry.neighbors.cell_list import cell_grid, crowd_capacity, dense_tier
 from jaxdpd.scene import Scene, cube_root
 
 

@@ -3,7 +3,7 @@
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd import noise
+from jaxdpd.engine import noise
 
 
 def test_pair_noise_is_symmetric_and_depends_only_on_the_counters():

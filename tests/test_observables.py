@@ -4,9 +4,9 @@ import jax.numpy as jnp
 import numpy as np
 from conftest import make_scene
 
-from jaxdpd import noise
-from jaxdpd.runner import simulate
-from jaxdpd.simulation import build
+from jaxdpd.engine import noise
+from jaxdpd.engine.build import build
+from jaxdpd.run.runner import simulate
 
 
 def brute_force_dpd(positions, velocities, lengths, a, gamma, kT, dt, seed, step):

@@ -3,7 +3,7 @@
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.boxes import PeriodicBox
+from jaxdpd.geometry.boxes import PeriodicBox
 
 
 def test_wrap_counts_the_round_off_folds_at_the_box_edges():

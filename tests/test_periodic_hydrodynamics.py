@@ -1,10 +1,10 @@
 """Ewald sum of the periodic Oseen trace and the finite-size hydrodynamic radius
-(jaxdpd.observables.periodic_hydrodynamics)."""
+(jaxdpd.analysis.periodic_hydrodynamics)."""
 
 import numpy as np
 import pytest
 
-from jaxdpd.observables import periodic_hydrodynamics as ph
+from jaxdpd.analysis import periodic_hydrodynamics as ph
 
 
 def test_ewald_sum_has_the_hasimoto_constant_and_the_background_term():

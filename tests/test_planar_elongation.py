@@ -15,7 +15,7 @@ References:
   γ̇ = 2ε̇ = 0.2.
 
 Boxes are thin along the neutral axis y: the flow is stable only for
-ε̇ < ν (2π/L_y)² (see jaxdpd.boxes.kraynik_reinelt), ν ≈ 0.29 here.
+ε̇ < ν (2π/L_y)² (see jaxdpd.geometry.boxes.kraynik_reinelt), ν ≈ 0.29 here.
 
 Tolerances: 4 standard errors of block averages (20 blocks of a time series, or of
 samples at chunk ends), combined in quadrature for differences.
@@ -26,12 +26,13 @@ import numpy as np
 import pytest
 from conftest import scene_dict
 
-from jaxdpd import ensemble, flows
-from jaxdpd.observables.elongation import elongational_material_functions
-from jaxdpd.observables.green_kubo import shear_viscosity
+from jaxdpd.analysis.elongation import elongational_material_functions
+from jaxdpd.analysis.green_kubo import shear_viscosity
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.geometry import flows
+from jaxdpd.run import ensemble
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
 
 SMALL = [4.0, 3.0, 4.0]  # N = 144 at ρ = 3; stable below ε̇ ≈ 1.27
 RATES = [0.0, 0.1, 1.0]

@@ -14,14 +14,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxdpd.bonds import fene
-from jaxdpd.boxes import KraynikReineltBox
-from jaxdpd.observables.chain_series import conformation_samples
-from jaxdpd.observables.elongation import (
+from jaxdpd.analysis.elongation import (
     elongational_material_functions,
     elongational_viscosities,
 )
-from jaxdpd.topology import ChainBlock
+from jaxdpd.forces.bonds import fene
+from jaxdpd.geometry.boxes import KraynikReineltBox
+from jaxdpd.geometry.chain_topology import ChainBlock
+from jaxdpd.observables.chain_series import conformation_samples
 
 LENGTHS = (6.0, 4.0, 6.0)
 
@@ -101,7 +101,7 @@ def test_straight_chain_cut_by_the_deforming_faces_keeps_its_shape(strain):
 
 
 def test_replica_jackknife_gives_the_spread_of_the_relaxation_fit():
-    """Jackknife errors over replicas (jaxdpd.relaxation.replica_jackknife) match the
+    """Jackknife errors over replicas (jaxdpd.studies.relaxation.replica_jackknife) match the
     true scatter of the fitted eq. 5.15 parameters for curves whose noise is
     correlated in time (AR(1), correlation 0.95 per point, as in a sampled run), where
     the fit's own errors, which take the points as independent, are too small.
@@ -111,8 +111,8 @@ def test_replica_jackknife_gives_the_spread_of_the_relaxation_fit():
     upwards (Efron & Stein, Ann. Stat. 9, 586 (1981)), so the RMS jackknife error may
     not fall below 0.8 of the true spread (4 of those 5 % errors) and must stay below
     1.5 of it to be of use."""
-    from jaxdpd.observables.fits import fit_end_to_end_relaxation
-    from jaxdpd.relaxation import replica_jackknife
+    from jaxdpd.analysis.fits import fit_end_to_end_relaxation
+    from jaxdpd.studies.relaxation import replica_jackknife
 
     rng = np.random.default_rng(5)
     times = np.arange(2.0, 25.0, 0.2)

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from conftest import scene_dict
 
-from jaxdpd import ensemble, flows
-from jaxdpd.boxes import KraynikReineltBox, make_box
+from jaxdpd.geometry import flows
+from jaxdpd.geometry.boxes import KraynikReineltBox, make_box
+from jaxdpd.run import ensemble
 from jaxdpd.scene import Scene
 
 FLOW = {"kind": "planar_elongation", "elongation_rate": 0.2}
@@ -86,7 +87,7 @@ def test_springs_must_fit_the_thinnest_kraynik_reinelt_cell():
 def test_replicas_take_their_own_elongation_rates():
     """`replicate(..., flow_rates=...)` sets ε̇ per replica (each keeps its own strain);
     shear_rates are refused for elongation, flow_rates for a box at rest."""
-    from jaxdpd.simulation import build
+    from jaxdpd.engine.build import build
 
     # Thermostat off and no pair force: nothing to compile but the (empty) kernel.
     bare = {"solvent": {"method": "dpd", "gamma": 0.0}, "pair": None}

@@ -17,11 +17,13 @@ from conftest import scene_dict
 from test_planar_elongation import elongation_scene, mean_and_error
 from test_shear_flow import collect_series, sheared_scene
 
-from jaxdpd import ensemble, flows, relaxation
-from jaxdpd.observables.elongation import elongational_material_functions
+from jaxdpd.analysis.elongation import elongational_material_functions
+from jaxdpd.analysis.statistics import inverse_variance_mean
+from jaxdpd.engine.build import build
+from jaxdpd.geometry import flows
+from jaxdpd.run import ensemble
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.statistics import inverse_variance_mean
+from jaxdpd.studies import relaxation
 
 STEPS = 10000
 SHEAR_RATE = 0.2

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from gaussian_chains import gaussian_chains, mean_and_error
 
-from jaxdpd.observables import conformation as conf
+from jaxdpd.analysis import conformation as conf
 
 N_CHAINS, N_BEADS = 2000, 16
 TOLERANCE_SIGMAS = 4.0

@@ -15,7 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxdpd.observables import conformation, correlator, dynamics, fits
+from jaxdpd.analysis import conformation, dynamics, fits
+from jaxdpd.observables import correlator
 
 N_CHAINS, N_BEADS, N_TIMES, DT = 100, 8, 1024, 0.1
 SPRING, FRICTION = 3.0, 1.0  # l^2 = 3 k_BT / H = 1

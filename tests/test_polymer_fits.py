@@ -10,7 +10,7 @@ value to lie within 3 sigma of every single fit.
 import numpy as np
 import pytest
 
-from jaxdpd.observables import fits
+from jaxdpd.analysis import fits
 
 REPEATS = 200
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from gaussian_chains import gaussian_chains, mean_and_error
 
-from jaxdpd.observables import scattering
+from jaxdpd.analysis import scattering
 
 N_CHAINS, N_BEADS = 2000, 16
 BOX = np.array([20.0, 20.0, 20.0])

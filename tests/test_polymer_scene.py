@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from conftest import make_scene, scene_dict
 
-from jaxdpd import errors
-from jaxdpd.errors import SimulationError
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import build
+from jaxdpd.engine.errors import SimulationError
+from jaxdpd.geometry.chain_topology import chain_coordinates
 from jaxdpd.io.h5md import read_checkpoint
-from jaxdpd.runner import simulate
+from jaxdpd.run.runner import simulate
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.topology import chain_coordinates
 
 TWO_SPECIES = {
     "density": 3.0,

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from jaxdpd import driver
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
 
 DT = 0.02
 Q0 = 3.0

@@ -1,7 +1,7 @@
 """Resource limits (issue 28, items 8–9): the scenes of the issue that ended in NumPy
 memory errors, int32 overflows or hangs are refused by `build()` with a ValueError
-naming the field, before anything is allocated (jaxdpd.resources), and a random
-placement that cannot finish gives up (jaxdpd.placement)."""
+naming the field, before anything is allocated (jaxdpd.run.resources), and a random
+placement that cannot finish gives up (jaxdpd.geometry.placement)."""
 
 import time
 
@@ -10,11 +10,11 @@ import pytest
 from conftest import scene_dict
 from test_lattice_boltzmann_scene import lattice_scene
 
-from jaxdpd import placement
-from jaxdpd.boxes.periodic import PeriodicBox
-from jaxdpd.resources import ResourceError, check_resources, estimated_bytes
+from jaxdpd.engine.build import build, chain_blocks
+from jaxdpd.geometry import placement
+from jaxdpd.geometry.boxes.periodic import PeriodicBox
+from jaxdpd.run.resources import ResourceError, check_resources, estimated_bytes
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build, chain_blocks
 
 
 def _scene(drop_density=False, **sections) -> Scene:

@@ -4,7 +4,7 @@ The reference is the same scene run uninterrupted (io_runs).  "The same" means: 
 leaf of the final SimState (neighbour list included) bit-identical, every stored
 series and frame equal element for element with the same steps, g(r) equal, and
 the summary's block averages equal.  Integration is deterministic (counter-based
-noise, jaxdpd.noise; the same compiled step on the same CPU), so no tolerance is
+noise, jaxdpd.engine.noise; the same compiled step on the same CPU), so no tolerance is
 needed.
 """
 
@@ -33,14 +33,14 @@ from io_runs import (
     reference_run,
 )
 
-from jaxdpd import runner
-from jaxdpd.cli import main
-from jaxdpd.driver import RunInterrupted, SignalGuard
 from jaxdpd.io import RunFileError, checkpoint, read_checkpoint, read_observables, read_trajectory
 from jaxdpd.io.checkpoint import checkpoint_path
 from jaxdpd.io.errors import OutputError
 from jaxdpd.io.h5md import H5MDWriter
-from jaxdpd.runner import prepare, resume, simulate
+from jaxdpd.run import runner
+from jaxdpd.run.cli import main
+from jaxdpd.run.driver import RunInterrupted, SignalGuard
+from jaxdpd.run.runner import prepare, resume, simulate
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 
@@ -83,7 +83,7 @@ def test_sigint_to_a_cli_run_then_restart_ends_bit_identical_in_float64(tmp_path
     environment["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(REPOSITORY), environment.get("PYTHONPATH")) if p
     )
-    command = [sys.executable, "-m", "jaxdpd.cli", "run", str(scene_file), "-o", str(output)]
+    command = [sys.executable, "-m", "jaxdpd.run.cli", "run", str(scene_file), "-o", str(output)]
     process = subprocess.Popen(
         # The shell ignores SIGINT, and exec keeps it ignored, as in a background job.
         ["sh", "-c", 'trap "" INT; exec "$@"', "sh", *command],

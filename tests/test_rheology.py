@@ -24,13 +24,14 @@ from dumbbell_scenes import sheared_solution_with_tracers
 
 import jaxdpd  # noqa: F401  (float64)
 from jaxdpd import brownian as bd
-from jaxdpd.bonds import fene, hookean
-from jaxdpd.boxes import PeriodicBox
-from jaxdpd.observables import chain_series, rheology
+from jaxdpd.analysis import rheology
+from jaxdpd.analysis.running_averages import RunningBlockAverages
+from jaxdpd.analysis.statistics import inverse_variance_mean, ratio_of_means
+from jaxdpd.forces.bonds import fene, hookean
+from jaxdpd.geometry.boxes import PeriodicBox
+from jaxdpd.geometry.chain_topology import ChainBlock
+from jaxdpd.observables import chain_series
 from jaxdpd.observables.drag import giesekus_drag
-from jaxdpd.running_averages import RunningBlockAverages
-from jaxdpd.statistics import inverse_variance_mean, ratio_of_means
-from jaxdpd.topology import ChainBlock
 
 SIGMAS = 4.0
 MEAN = np.array([[3.2, -0.3, 0.0], [-0.3, 3.0, 0.0], [0.0, 0.0, 3.1]])
@@ -283,7 +284,7 @@ def test_summary_rows_of_a_sheared_dumbbell_solution():
     drift = series["drag/relative_velocity"][:, 0]
     zeta = 1.0 * 299 / (296 * np.mean(drift[drift.size % 20 :]))
     assert rows["drag/zeta"][0] == pytest.approx(zeta)
-    # A streamed run keeps only block means (jaxdpd.running_averages): the same rows.
+    # A streamed run keeps only block means (jaxdpd.analysis.running_averages): the same rows.
     averages = RunningBlockAverages(100)
     averages.add(0, {name: values[:60] for name, values in series.items()})
     averages.add(60, {name: values[60:] for name, values in series.items()})

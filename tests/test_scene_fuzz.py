@@ -23,8 +23,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mpcd_scenes import pure_solvent
 
+from jaxdpd.engine.build import build
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
 
 SECTIONS = (
     "seed|precision|cutoff|box|particles|solvent|pair|integrator|polymers|flow|neighbors|"

@@ -1,5 +1,5 @@
 """Spring–spring closest approach, repulsion forces and the spring-pair list
-(jaxdpd.segments, jaxdpd.neighbors.spring_pairs; thesis §5.2)."""
+(jaxdpd.forces.spring_repulsion, jaxdpd.geometry.neighbors.spring_pair_list; thesis §5.2)."""
 
 import functools
 import math
@@ -9,11 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxdpd.boxes import make_box
-from jaxdpd.neighbors.spring_pairs import SpringPairSearch, spring_pair_needs
-from jaxdpd.observables.spring_pairs import spring_pair_distribution, spring_pair_samples
-from jaxdpd.scene import Flow
-from jaxdpd.segments import (
+from jaxdpd.forces.spring_repulsion import (
     SpringTable,
     closest_approach,
     pair_energy,
@@ -24,6 +20,10 @@ from jaxdpd.segments import (
     spring_repulsion_law,
     spring_vectors,
 )
+from jaxdpd.geometry.boxes import make_box
+from jaxdpd.geometry.neighbors.spring_pair_list import SpringPairSearch, spring_pair_needs
+from jaxdpd.observables.spring_pairs import spring_pair_distribution, spring_pair_samples
+from jaxdpd.scene import Flow
 
 LAWS = {
     "exponential": spring_repulsion_law(

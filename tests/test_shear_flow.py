@@ -22,11 +22,11 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from jaxdpd import driver, ensemble
-from jaxdpd.forcing import cosine_profile_amplitude, cosine_wavenumber
+from jaxdpd.analysis.statistics import block_average, inverse_variance_mean
+from jaxdpd.engine.build import build
+from jaxdpd.forces.body_forces import cosine_profile_amplitude, cosine_wavenumber
 from jaxdpd.observables.profiles import slab_centres
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average, inverse_variance_mean
+from jaxdpd.run import driver, ensemble
 
 DENSITY = 3.0
 

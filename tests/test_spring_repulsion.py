@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from conftest import make_scene, scene_dict
 
-from jaxdpd import ensemble
-from jaxdpd.driver import run_chunk
-from jaxdpd.runner import resume, simulate
+from jaxdpd.engine.build import build
+from jaxdpd.geometry.chain_topology import chain_blocks
+from jaxdpd.run import ensemble
+from jaxdpd.run.driver import run_chunk
+from jaxdpd.run.runner import resume, simulate
 from jaxdpd.scene import Scene
-from jaxdpd.simulation import build
-from jaxdpd.topology import chain_blocks
 
 FENE = {"law": "fene", "spring_constant": 8.0, "max_extension": 2.5}
 CHAINS = {
@@ -194,7 +194,7 @@ def test_sheared_run_writes_spring_series_and_resumes(tmp_path):
 
 @pytest.mark.slow
 def test_replicas_at_two_shear_rates_share_spring_buffers():
-    """The ensemble path (jaxdpd.ensemble): replicas at two shear rates stack with one
+    """The ensemble path (jaxdpd.run.ensemble): replicas at two shear rates stack with one
     spring-pair buffer shape and run without error flags."""
     simulation = build(sheared_chains())
     batch = ensemble.replicate(simulation, simulation.init_fn(), shear_rates=[0.2, 0.5])

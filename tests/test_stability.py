@@ -37,12 +37,17 @@ import pytest
 from conftest import make_scene
 
 from jaxdpd import brownian as bd
-from jaxdpd import driver, errors
-from jaxdpd.boxes.lees_edwards import LeesEdwardsBox
-from jaxdpd.parameters import with_parameters
-from jaxdpd.pathwise import MAX_TANGENT_GROWTH, PathwiseDerivativeWarning, pathwise_derivative
-from jaxdpd.simulation import build
-from jaxdpd.statistics import block_average
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import build
+from jaxdpd.engine.parameters import with_parameters
+from jaxdpd.geometry.boxes.lees_edwards import LeesEdwardsBox
+from jaxdpd.run import driver
+from jaxdpd.studies.pathwise import (
+    MAX_TANGENT_GROWTH,
+    PathwiseDerivativeWarning,
+    pathwise_derivative,
+)
 
 MILLION_STRAIN = 1.0e6
 
@@ -246,7 +251,7 @@ def test_short_pathwise_derivative_equals_central_finite_differences():
 @pytest.mark.slow
 def test_pathwise_derivative_through_ten_thousand_steps_warns_with_the_estimator_to_use():
     """Through 10⁴ steps (400 time units) the tangent of a chaotic DPD fluid grows
-    like exp(λ_max t) (module docstring of jaxdpd.pathwise): the derivative must not
+    like exp(λ_max t) (module docstring of jaxdpd.studies.pathwise): the derivative must not
     be returned silently but with a warning naming the fluctuation estimator."""
     simulation = build(small_dumbbell_solution())
     state = driver.run(simulation, simulation.init_fn(), 100, 100)

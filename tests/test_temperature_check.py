@@ -1,5 +1,5 @@
 """Temperature sanity (issue 28, item 7): a run whose mean k_BT is off the set value
-is flagged in the summary, printed and marked in the file (jaxdpd.temperature_check).
+is flagged in the summary, printed and marked in the file (jaxdpd.analysis.temperature_check).
 
 Reference: Groot–Warren's integrator holds k_BT within 1 % of the set point at
 Δt = 0.04 and heats the fluid at larger steps (thesis §2.2.1; Groot & Warren, J.
@@ -15,9 +15,9 @@ import pytest
 from conftest import make_scene
 from mpcd_scenes import pure_solvent
 
-from jaxdpd.runner import RunSummary, simulate
+from jaxdpd.analysis.temperature_check import flag_points, is_off, temperature_warning
+from jaxdpd.run.runner import RunSummary, simulate
 from jaxdpd.scene import Scene
-from jaxdpd.temperature_check import flag_points, is_off, temperature_warning
 
 
 @pytest.mark.parametrize(

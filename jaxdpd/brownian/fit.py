@@ -66,6 +66,7 @@ import numpy as np
 import optax
 from jax.flatten_util import ravel_pytree
 
+from jaxdpd.analysis.statistics import block_average
 from jaxdpd.brownian._checks import check_count, check_positive, float_dtype
 from jaxdpd.brownian.dynamics import (
     _advance,
@@ -79,7 +80,6 @@ from jaxdpd.brownian.dynamics import (
 from jaxdpd.brownian.flows import check_flow, velocity_gradient
 from jaxdpd.brownian.rheology import MATERIAL_FUNCTIONS, material_functions
 from jaxdpd.brownian.springs import FENE, check_spring
-from jaxdpd.statistics import block_average
 
 __all__ = [
     "stationary_average",

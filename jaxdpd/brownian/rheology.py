@@ -26,7 +26,7 @@ In the linear (Newtonian) limit the polymer stress is ``-eta_p0 (kappa + kappa^T
 the Trouton ratios are ``eta_bar_1/eta_p0 = 4`` (planar) and ``eta_bar/eta_p0 = 3``
 (uniaxial).
 
-Error bars are block averages (:func:`jaxdpd.statistics.block_average`) of the time
+Error bars are block averages (:func:`jaxdpd.analysis.statistics.block_average`) of the time
 series of ensemble means; every material function is linear in the ensemble mean of
 ``f Q Q`` at one time, so its per-sample series is block-averaged directly (the
 extension uses ``<|Q|>``, also linear).
@@ -51,11 +51,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.analysis.statistics import block_average
 from jaxdpd.brownian._checks import check_count, check_positive, float_dtype
 from jaxdpd.brownian.dynamics import check_noise, simulate, state_from_connectors
 from jaxdpd.brownian.flows import check_flow, velocity_gradient
 from jaxdpd.brownian.springs import check_spring
-from jaxdpd.statistics import block_average
 
 __all__ = [
     "kramers_tensor",

@@ -45,7 +45,7 @@ Layout of a checkpoint file:
     header = {"format": FORMAT, "step", "time", "phase", "reason", "run_id",
               "scene": Scene.to_dict(), "series": {element path: samples}}
 
-`phase` is "equilibration" or "production" (see jaxdpd.runner); `reason` says why
+`phase` is "equilibration" or "production" (see jaxdpd.run.runner); `reason` says why
 it was written ("end of run", "interrupted by SIGINT", "periodic", or the error that
 stopped the run); `run_id` is that of the output file (`/parameters:run_id`), so a
 checkpoint is never paired with another run's file; `series` holds the number of

@@ -95,7 +95,7 @@ def box_edges(bound_box) -> np.ndarray:
     images of a sheared system are exactly those of this lattice, so tools that read
     triclinic boxes (MDAnalysis) find the right minimum images.  A Kraynik–Reinelt
     box gives its current primary cell the same way, rows (frame axis 0, y, frame axis
-    2) of jaxdpd.boxes.kraynik_reinelt, tilted in the x–z plane and centred on the
+    2) of jaxdpd.geometry.boxes.kraynik_reinelt, tilted in the x–z plane and centred on the
     stagnation point (tools that rotate a triclinic cell into a standard orientation
     lose that tilt).
 
@@ -382,7 +382,7 @@ class H5MDWriter:
 
     def write_warning(self, name: str, message: str | None) -> None:
         """Set (or, with None, remove) the `warning` attribute of observables/<name>: a
-        sanity check of the run's averages that failed (jaxdpd.temperature_check)."""
+        sanity check of the run's averages that failed (jaxdpd.analysis.temperature_check)."""
         attributes = self.file[f"observables/{name}"].attrs
         if message is not None:
             attributes["warning"] = message

@@ -89,7 +89,7 @@ def read_state(path, simulation=None):
     Returns:
         The SimState, every leaf with the stored dtype, shape and bits.
     """
-    from jaxdpd.simulation import build
+    from jaxdpd.engine.build import build
 
     if simulation is None:
         simulation = build(read_scene(path))
@@ -159,7 +159,7 @@ def read_unwrapped_positions(path) -> Series:
     counters times the frame's box edges, n_x a1 + n_y a2 + n_z a3, the rows of a
     (3, 3) `edges` or the diagonal of a (3,) one.  For a Lees–Edwards box a2 =
     (Δ, L_y, 0) holds the frame's offset; the counters are carried across the
-    offset's wraps (jaxdpd.boxes.lees_edwards), so the unwrapped trajectory is
+    offset's wraps (jaxdpd.geometry.boxes.lees_edwards), so the unwrapped trajectory is
     continuous, the laboratory-frame path of each particle.  Kraynik–Reinelt frames
     have no such rule (the lattice basis changes at each reset): RunFileError.
     """
@@ -183,7 +183,7 @@ def read_unwrapped_positions(path) -> Series:
 def load(path) -> RunRecord:
     """Scene, checkpointed state (restored through the scene's build()) and every
     observable of a file (state and checkpoint None when it has no checkpoint file)."""
-    from jaxdpd.simulation import build
+    from jaxdpd.engine.build import build
 
     with open_run_file(path) as handle:
         scene = scene_of(handle)

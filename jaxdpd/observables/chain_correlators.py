@@ -15,7 +15,7 @@ with the unwrapped chain coordinates (thesis §3.2.4–3.2.5), so no trajectory 
                             ⟨R_g²⟩ at lag 0, and `positional_autocorrelation`
                             turns it into the normalised C(t) of the Rouse–Zimm fit
 
-(definitions: :mod:`jaxdpd.observables.dynamics`; units r_c², lag times in time
+(definitions: :mod:`jaxdpd.analysis.dynamics`; units r_c², lag times in time
 units).  All work for any number of chains, one included.  The correlators live in
 `SimState.observers`, so they are checkpointed with the state and cost memory
 O(levels · 16 · beads) whatever the run length.
@@ -33,13 +33,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.observables import correlator
-from jaxdpd.observables.conformation import end_to_end_vector
-from jaxdpd.observables.dynamics import (
+from jaxdpd.analysis.conformation import end_to_end_vector
+from jaxdpd.analysis.dynamics import (
     diffusion_coefficient,
     displacement_samples,
     normalized_correlation,
 )
+from jaxdpd.observables import correlator
 
 MSD_SERIES = ("g1", "g2", "g3")
 SERIES = (*MSD_SERIES, "end_to_end_acf", "positional_acf")
@@ -91,7 +91,7 @@ def chain_correlations(correlators: dict, sample_interval: float) -> dict:
 
     Args:
         correlators: from the state's `observers`: one replica's, or a batch's from
-            jaxdpd.ensemble (every leaf with a leading replica axis B).
+            jaxdpd.run.ensemble (every leaf with a leading replica axis B).
         sample_interval: simulated time between samples (correlator_every · Δt).
     Returns:
         dict "<species>/<series>" → (lag times (K,), values (K, C) for g3 and

@@ -25,7 +25,7 @@ Chains are reconstructed in one piece across periodic boundaries (thesis §3.2.4
 
 import jax.numpy as jnp
 
-from jaxdpd.observables.conformation import (
+from jaxdpd.analysis.conformation import (
     bond_vectors,
     conformation_tensor,
     end_to_end_squared,
@@ -33,8 +33,8 @@ from jaxdpd.observables.conformation import (
     fractional_extension,
     gyration_radius_squared,
 )
-from jaxdpd.pairs import soft_repulsion
-from jaxdpd.topology import chain_coordinates
+from jaxdpd.forces.pair_laws import soft_repulsion
+from jaxdpd.geometry.chain_topology import chain_coordinates
 
 
 def conformation_samples(box, positions, blocks, parameters=None, image=None) -> dict:
@@ -44,9 +44,9 @@ def conformation_samples(box, positions, blocks, parameters=None, image=None) ->
         box: the (bound) box.
         positions: (N, 3) wrapped positions.
         blocks: the scene's ChainBlocks.
-        parameters: the state's traced parameters (jaxdpd.parameters), whose bond
+        parameters: the state's traced parameters (jaxdpd.engine.parameters), whose bond
             max_extension gives the contour length; None: the scene's values.
-        image: (N, 3) image counters, or None (jaxdpd.topology.chain_coordinates:
+        image: (N, 3) image counters, or None (jaxdpd.geometry.chain_topology.chain_coordinates:
             with them, springs longer than half the box are measured right).
     Returns:
         name → scalar or (3, 3) tensor, names as in the module docstring.

@@ -4,7 +4,7 @@
 Deborah number De = γ̇ λ_H in which DPD and Brownian-dynamics flow curves are
 compared.
 
-(a) Tagged-particle forcing (jaxdpd.forcing.tagged_body_force, the "drag"
+(a) Tagged-particle forcing (jaxdpd.forces.body_forces.tagged_body_force, the "drag"
     observable): a force F x̂ on each of k tagged particles and −k F/(N − k) x̂ on
     each of the others.  The tagged particles drift through the rest with the mean
     relative velocity Δv = ⟨v̄_T − v̄_R⟩_x, and ζ = F/Δv (thesis: "ζ = F_applied /
@@ -43,14 +43,14 @@ compared.
     hydrodynamic interaction, which DPD has, so (b) agrees with (a) only within
     those caveats.
 
-Error bars: block averages of the time series (jaxdpd.statistics), ratios by the
+Error bars: block averages of the time series (jaxdpd.analysis.statistics), ratios by the
 delta method (`ratio_of_means`).  Leading replica axes (ensembles) are kept.
 """
 
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.statistics import block_average, ratio_of_means
+from jaxdpd.analysis.statistics import block_average, ratio_of_means
 
 GIESEKUS_COMPONENTS = ("shear", "normal", "xx")
 

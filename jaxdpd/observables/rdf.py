@@ -14,9 +14,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.neighbors import PairList, neighbor_search
-from jaxdpd.neighbors.cell_list import cell_grid
-from jaxdpd.pairwise import pair_geometry
+from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.geometry.neighbors import PairList, neighbor_search
+from jaxdpd.geometry.neighbors.cell_list import cell_grid
 
 
 class RadialDistribution:

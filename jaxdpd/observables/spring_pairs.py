@@ -12,7 +12,7 @@ Per step (thesis §5.2.2, "Spring Pair Distribution Function", fig. 5-5):
                              an end) are not counted: their D may reverse without a
                              crossing.
 
-Pairs are taken from the spring-pair list (jaxdpd.neighbors.spring_pairs), which is
+Pairs are taken from the spring-pair list (jaxdpd.geometry.neighbors.spring_pair_list), which is
 complete up to D_max; a pair that crosses in one step is within D_max at its end as
 long as the step moves beads by less than D_max.
 """
@@ -20,7 +20,7 @@ long as the step moves beads by less than D_max.
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.segments import SpringPairGeometry
+from jaxdpd.forces.spring_repulsion import SpringPairGeometry
 
 
 def _inside(approach):

@@ -28,8 +28,8 @@ Errors and their control:
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.observables.dynamics import time_autocorrelation
-from jaxdpd.trigonometry import sincos_turns
+from jaxdpd.analysis.dynamics import time_autocorrelation
+from jaxdpd.engine.trigonometry import sincos_turns
 
 # (velocity component a, wave-vector axis b), a ≠ b.
 TRANSVERSE_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))

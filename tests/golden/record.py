@@ -195,8 +195,8 @@ def run(data: dict) -> dict:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    from jaxdpd.engine.build import build
     from jaxdpd.scene import Scene
-    from jaxdpd.simulation import build
 
     data = copy.deepcopy(data)
     data.pop("run", None)

@@ -1,0 +1,1 @@
+"""Host-side estimators: fits, Green–Kubo, rheology, statistics of series."""

@@ -1,0 +1,184 @@
+"""Material functions of steady simple shear from a run's stress series.
+
+With the pressure tensor P = −σ of jaxdpd.observables.thermo (Irving–Kirkwood, thesis
+eqs. 3.46–3.49) and u_x = γ̇ (y − L_y/2):
+
+    η  = −⟨P_xy⟩/γ̇,
+    Ψ1 = N1/γ̇²,  N1 = σ_xx − σ_yy = ⟨P_yy⟩ − ⟨P_xx⟩,
+    Ψ2 = N2/γ̇²,  N2 = σ_yy − σ_zz = ⟨P_zz⟩ − ⟨P_yy⟩
+
+(Bird, Armstrong & Hassager, *Dynamics of Polymeric Liquids* vol. 1, 2nd ed. (1987),
+ch. 3; thesis eqs. 4.12–4.13).  The polymer contributions η_p, Ψ1,p, Ψ2,p are the
+same functions of the Kramers spring part "pressure_tensor_part/bond" (thesis eq.
+3.48: its isotropic n k_BT drops out of every material function), and every other
+part ("kinetic", "conservative", "dissipative", "random") gives its share of η.
+
+Series are per-step samples, the time axis next to the tensor axes, with any
+leading axes (a replica axis of jaxdpd.run.ensemble); shear_rate is a scalar or one
+value per replica.  Errors are block averages over time (jaxdpd.analysis.statistics); a
+replica at γ̇ = 0 gets NaN.  `summary_rows` gathers what the run summary shows for
+a scene.
+"""
+
+import jax.numpy as jnp
+import numpy as np
+
+from jaxdpd.analysis.statistics import block_average
+from jaxdpd.observables.drag import giesekus_drag, tagged_drag
+
+MATERIAL_FUNCTIONS = ("viscosity", "psi1", "psi2")
+PART_PREFIX = "pressure_tensor_part/"
+
+
+def material_function_series(pressure_tensor, shear_rate) -> dict:
+    """Per-sample η, Ψ1, Ψ2 from a pressure-tensor series.
+
+    Args:
+        pressure_tensor: (..., T, 3, 3) P (or one of its parts).
+        shear_rate: γ̇, scalar or (...) (one per replica).
+    Returns:
+        {"viscosity", "psi1", "psi2"} → (..., T) series (NaN where γ̇ = 0).
+    """
+    pressure = jnp.asarray(pressure_tensor)
+    if pressure.ndim < 3 or pressure.shape[-2:] != (3, 3):
+        raise ValueError(f"pressure_tensor must be (..., T, 3, 3), got {pressure.shape}")
+    rate = jnp.asarray(shear_rate, pressure.dtype)[..., None]
+    rate = jnp.where(rate == 0, jnp.nan, rate)
+    shear = 0.5 * (pressure[..., 0, 1] + pressure[..., 1, 0])
+    return {
+        "viscosity": -shear / rate,
+        "psi1": (pressure[..., 1, 1] - pressure[..., 0, 0]) / rate**2,
+        "psi2": (pressure[..., 2, 2] - pressure[..., 1, 1]) / rate**2,
+    }
+
+
+def material_functions(pressure_tensor, shear_rate, n_blocks: int = 20) -> dict:
+    """η, Ψ1, Ψ2 with block-average standard errors.
+
+    Args:
+        pressure_tensor: (..., T, 3, 3) series.
+        shear_rate: γ̇, scalar or (...).
+        n_blocks: blocks of the time series.
+    Returns:
+        name → (mean, standard error), arrays of shape (...).
+    """
+    series = material_function_series(pressure_tensor, shear_rate)
+    return {
+        name: block_average(values, n_blocks=n_blocks, axis=-1) for name, values in series.items()
+    }
+
+
+def shear_rheology(series: dict, shear_rate, n_blocks: int = 20) -> dict:
+    """Material functions of the whole fluid, the polymer and each stress part.
+
+    Args:
+        series: a run's series ("pressure_tensor" and "pressure_tensor_part/<part>",
+            shapes (..., T, 3, 3); jaxdpd.observables.thermo.reduce_samples).
+        shear_rate: γ̇, scalar or (...).
+        n_blocks: blocks of the time series.
+    Returns:
+        name → (mean, standard error): "viscosity", "psi1", "psi2" (total);
+        "polymer/viscosity", "polymer/psi1", "polymer/psi2" (Kramers spring part,
+        when the run has one); "viscosity_part/<part>" for every other part.
+    """
+    if "pressure_tensor" not in series:
+        raise ValueError("series: no 'pressure_tensor'; the scene must observe 'pressure'")
+    results = material_functions(series["pressure_tensor"], shear_rate, n_blocks)
+    for name, values in series.items():
+        if not name.startswith(PART_PREFIX):
+            continue
+        part = name[len(PART_PREFIX) :]
+        functions = material_functions(values, shear_rate, n_blocks)
+        if part == "bond":
+            results.update({f"polymer/{key}": value for key, value in functions.items()})
+        else:
+            results[f"viscosity_part/{part}"] = functions["viscosity"]
+    return results
+
+
+def conformation_components(conformation, n_blocks: int = 20) -> dict:
+    """The components of a conformation tensor series that shear makes nonzero.
+
+    Args:
+        conformation: (..., T, 3, 3) ⟨QQ⟩ series ("<species>/bond_conformation").
+    Returns:
+        {"xy": ⟨Q_x Q_y⟩, "xx-yy": ⟨Q_x²⟩ − ⟨Q_y²⟩, "yy-zz": ⟨Q_y²⟩ − ⟨Q_z²⟩} →
+        (mean, standard error); all vanish at rest (isotropy).
+    """
+    tensor = jnp.asarray(conformation)
+    components = {
+        "xy": 0.5 * (tensor[..., 0, 1] + tensor[..., 1, 0]),
+        "xx-yy": tensor[..., 0, 0] - tensor[..., 1, 1],
+        "yy-zz": tensor[..., 1, 1] - tensor[..., 2, 2],
+    }
+    return {
+        key: block_average(values, n_blocks=n_blocks, axis=-1) for key, values in components.items()
+    }
+
+
+def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
+    """Rows for the run summary: name → (mean, standard error) as Python floats.
+
+    Args:
+        scene: the run's scene.
+        series: name → (T, ...) series, per-step samples or the block means of a
+            streamed run (jaxdpd.analysis.running_averages.RunningBlockAverages.block_means,
+            T = n_blocks: every function here is linear in the samples or a ratio
+            of such means, so block means give the same estimates).
+        n_blocks: blocks of the time series (≥ 2).
+    Returns:
+        name → (mean, standard error).
+
+    For a steady shear flow with "pressure": the material functions of
+    `shear_rheology`; with "conformation": the sheared components of each species'
+    ⟨QQ⟩ (`conformation_components`) and, for dumbbells under shear, the Giesekus
+    drag coefficient "<species>/drag_giesekus" (jaxdpd.observables.drag, "shear"
+    component, springs alone as thesis eq. 4.18) and "<species>/drag_giesekus_ev"
+    (springs plus the bead repulsion across them); with "drag": the
+    tagged-particle drag coefficient "drag/zeta".
+    Series shorter than n_blocks give no row.
+    """
+    rows = {}
+
+    def add(name, estimate):
+        mean, error = estimate
+        rows[name] = (float(mean), float(error))
+
+    def long_enough(name):
+        return n_blocks >= 2 and name in series and np.shape(series[name])[0] >= n_blocks
+
+    flow = scene.flow
+    steady_shear = flow is not None and flow.kind == "shear" and flow.oscillation_frequency is None
+    if steady_shear and long_enough("pressure_tensor") and flow.shear_rate != 0:
+        for name, estimate in shear_rheology(series, flow.shear_rate, n_blocks).items():
+            add(name, estimate)
+    for polymer in scene.polymers:
+        name = f"{polymer.species}/bond_conformation"
+        if not long_enough(name):
+            continue
+        for key, estimate in conformation_components(series[name], n_blocks).items():
+            add(f"{name}_{key}", estimate)
+        bond = f"{PART_PREFIX}bond"
+        if steady_shear and flow.shear_rate != 0 and polymer.beads == 2 and long_enough(bond):
+            springs = next(s.count for s in scene.particles.species if s.name == polymer.species)
+            density = springs / 2 / scene.volume
+            arguments = (series[bond], series[name], flow.shear_rate, density, scene.solvent.kT)
+            add(f"{polymer.species}/drag_giesekus", giesekus_drag(*arguments, n_blocks=n_blocks))
+            repulsion = f"{polymer.species}/spring_pair_pressure"
+            if repulsion in series:
+                estimate = giesekus_drag(
+                    *arguments, n_blocks=n_blocks, intramolecular_pressure=series[repulsion]
+                )
+                add(f"{polymer.species}/drag_giesekus_ev", estimate)
+    if long_enough("drag/relative_velocity"):
+        force = scene.body_force
+        tagged = next(s.count for s in scene.particles.species if s.name == force.species)
+        estimate = tagged_drag(
+            series["drag/relative_velocity"][:, 0],
+            force.amplitude,
+            tagged,
+            scene.n_particles,
+            n_blocks,
+        )
+        add("drag/zeta", estimate)
+    return rows

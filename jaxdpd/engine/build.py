@@ -1,0 +1,633 @@
+"""`build(scene)`: compose a pure step function from exactly the terms a scene names.
+
+Nothing the scene does not ask for is traced: without a [pair] section there is no
+conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
+Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
+kernel, without [body_force] no external force, with no pair term or thermostat at
+all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
+without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+With solvent.method = "lattice_boltzmann" the particles are beads coupled by
+friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
+(jaxdpd.solvents.lattice_boltzmann); with its k_BT = 0 no noise is traced.  With an MPCD
+solvent only the monomers feel forces: the force kernel and its neighbour search
+cover their index range alone.
+
+The bond constants and the body-force amplitude are read from
+`SimState.parameters` (jaxdpd.engine.parameters): one compiled step serves every value.
+"""
+
+import dataclasses
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxdpd.engine import errors, noise
+from jaxdpd.engine.integrators import (
+    collide_and_stream,
+    modified_velocity_verlet,
+    thermalized_velocity_verlet,
+)
+from jaxdpd.engine.parameters import scene_parameters
+from jaxdpd.engine.state import SimState
+from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
+from jaxdpd.forces.bonds import chain_bond_forces
+from jaxdpd.forces.pair_laws import soft_repulsion_term, wca_term
+from jaxdpd.forces.pair_sums import pair_geometry, pair_sums
+from jaxdpd.forces.spring_repulsion import (
+    pair_magnitudes,
+    segment_forces,
+    segment_virial,
+    spring_repulsion_law,
+    spring_table,
+)
+from jaxdpd.geometry.boxes import make_box
+from jaxdpd.geometry.chain_topology import chain_blocks
+from jaxdpd.geometry.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.geometry.neighbors.spring_pair_list import (
+    SpringPairSearch,
+    free_spring_length,
+    spring_pair_needs,
+    spring_pair_shapes,
+)
+from jaxdpd.geometry.placement import initial_configuration
+from jaxdpd.observables.chain_correlators import (
+    init_chain_correlators,
+    sample_every,
+    update_chain_correlators,
+)
+from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
+from jaxdpd.observables.drag import relative_velocity_samples
+from jaxdpd.observables.profiles import profile_samples
+from jaxdpd.observables.spring_pairs import spring_pair_samples
+from jaxdpd.observables.thermo import step_samples
+from jaxdpd.observables.transverse_current import transverse_currents
+from jaxdpd.run.resources import check_resources
+from jaxdpd.scene import Scene
+from jaxdpd.solvents.groot_warren import groot_warren_term
+from jaxdpd.solvents.hoogerbrugge_koelman import hoogerbrugge_koelman_term
+from jaxdpd.solvents.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
+from jaxdpd.solvents.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
+from jaxdpd.solvents.lowe_andersen import empty_record, lowe_andersen_thermostat
+from jaxdpd.solvents.mpcd.step import mpcd_step
+
+
+@dataclass(frozen=True)
+class PairContext:
+    """Per-particle data a pair term may read."""
+
+    velocities: jnp.ndarray
+    species: jnp.ndarray
+    key: jnp.ndarray
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """A built scene.
+
+    Attributes:
+        scene: the scene it was built from.
+        box: the static box (jaxdpd.geometry.boxes; bind it to a state's box_state).
+        blocks: the polymer chain blocks (jaxdpd.geometry.chain_topology.ChainBlock), maybe empty.
+        dtype: floating dtype of positions, velocities and forces.
+        masses: (N,) particle masses, or None when all are 1.
+        neighbor_search: the neighbour backend (None when no pair term exists).
+        spring_search: the spring-pair list's builder (None when nothing reads spring
+            pairs).
+        init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
+        step_fn: `step_fn(state) -> (state, samples)`, pure and jittable; samples is
+            a dict of per-step arrays (kinetic and virial tensors as requested).
+        reallocate: `reallocate(state, needs) -> state` with neighbour buffers
+            re-sized from the state's positions to hold at least `needs` (host side,
+            after an overflow), a tuple as `buffer_needs` gives it (the particle
+            list's (pairs, cell occupancy) first), or None to fit the state alone.
+        buffer_needs: `buffer_needs(state) -> tuple` of NumPy values: what every
+            neighbour buffer needed (for a batch of replicas, arrays over them;
+            `reallocate` takes their largest).
+        buffer_shapes: `buffer_shapes(state) -> tuple`: the static buffer sizes that
+            replicas must share to be stacked.
+        init_observers: `init_observers(state) -> state` with empty on-device
+            accumulators (`state.observers`), e.g. to discard the equilibration.
+    """
+
+    scene: Scene
+    box: object
+    blocks: tuple
+    dtype: object
+    masses: object
+    neighbor_search: NeighborSearch | None
+    spring_search: SpringPairSearch | None
+    init_fn: Callable
+    step_fn: Callable
+    reallocate: Callable
+    init_observers: Callable
+    buffer_needs: Callable
+    buffer_shapes: Callable
+
+
+def pair_terms(scene: Scene, dtype) -> list:
+    """The pair laws the scene names, in the order they are summed."""
+    terms = []
+    solvent = scene.solvent
+    if scene.pair is not None and scene.pair.kind == "wca":
+        terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
+    elif scene.pair is not None:
+        terms.append(soft_repulsion_term(scene.pair.a, dtype))
+    if solvent.method == "dpd" and solvent.gamma > 0:
+        terms.append(
+            groot_warren_term(solvent.gamma, solvent.kT, scene.integrator.dt, solvent.noise, dtype)
+        )
+    if solvent.method == "hoogerbrugge_koelman":
+        terms.append(
+            hoogerbrugge_koelman_term(
+                solvent.weight_density or scene.particles.density,
+                scene.cutoff,
+                solvent.pi0,
+                solvent.omega,
+                solvent.delta_pi,
+                1.0,
+                scene.integrator.dt,
+                dtype,
+            )
+        )
+    return terms
+
+
+def species_range(scene: Scene, name: str) -> tuple[int, int]:
+    """(first index, count) of the particles of species `name` (stored species
+    after species)."""
+    first = 0
+    for species in scene.particles.species:
+        if species.name == name:
+            return first, species.count
+        first += species.count
+    raise ValueError(f"species {name!r}: not in the scene's species {scene.species_names}")
+
+
+def body_force_law(scene: Scene, dtype):
+    """`force(positions, amplitude)` of the scene's [body_force], or None."""
+    section = scene.body_force
+    if section is None:
+        return None
+    if section.kind == "cosine":
+        return cosine_body_force(section.waves, scene.box.lengths[1], dtype)
+    first, count = species_range(scene, section.species)
+    return tagged_body_force(first, count, scene.n_particles, dtype)
+
+
+def force_kernel(
+    box,
+    terms,
+    search,
+    blocks,
+    cutoff: float,
+    with_virial: bool,
+    body_force,
+    spring_search=None,
+    repulsion=None,
+):
+    """The composed force kernel: the pair terms, the body force and the springs of
+    every chain block.
+
+    It acts on one contiguous range of particles: all of them, or the monomers of an
+    MPCD scene (then the positions and state it is given hold those rows only, the
+    neighbour search covers them alone and `blocks` index within the range).
+
+    Args:
+        box: the static box (bound to each state's box_state).
+        terms: pair terms (`pair_terms`), maybe empty.
+        search: the neighbour backend over the range (None without pair terms or
+            thermostat).
+        blocks: ChainBlocks indexed within the range.
+        cutoff: r_c of the pair terms.
+        with_virial: compute the virial parts (else none).
+        body_force: `body_force(positions, amplitude) -> (N, 3)` or None.
+        spring_search: the spring-pair list (SpringPairSearch), or None.
+        repulsion: the spring–spring repulsion law (jaxdpd.forces.spring_repulsion), or None.
+    Returns:
+        `interactions(positions, velocities, state) -> (vectors, virial parts
+        {name: (3, 3)}, the state with its neighbour lists refreshed, error bits)`.
+    """
+
+    def spring_interactions(positions, state, vectors, virial):
+        """Refresh the spring-pair list; add the spring–spring repulsion if the scene
+        has one.  Returns (vectors, virial, refreshed list, overflow bits)."""
+        spring_pairs, geometry = spring_search.refresh(
+            positions, state.spring_pairs, state.box_state
+        )
+        bits = jnp.where(spring_pairs.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        if repulsion is not None:
+            magnitude = pair_magnitudes(geometry, repulsion)
+            vectors = vectors + segment_forces(geometry, magnitude, positions.shape[0])
+            if with_virial:
+                virial["spring_repulsion"] = segment_virial(geometry, magnitude)
+        return vectors, virial, spring_pairs, bits
+
+    def pair_interactions(bound_box, positions, velocities, state):
+        """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
+        if search is None:
+            return jnp.zeros_like(positions), {}, state.pair_list
+        pair_list = search.update(positions, state.pair_list, state.box_state)
+        if not terms:  # the list serves the thermostat alone
+            return jnp.zeros_like(positions), {}, pair_list
+        geometry = pair_geometry(bound_box, positions, pair_list, cutoff, search.half)
+        key = noise.step_key(state.seed, state.step)
+        context = PairContext(velocities, state.species, key)
+        parts = {}
+        for term in terms:
+            parts.update(term(geometry, context))
+        vectors, virial = pair_sums(geometry, parts, with_virial)
+        return vectors, virial, pair_list
+
+    def interactions(positions, velocities, state):
+        """Pair terms plus the springs of every chain block (and their mutual
+        repulsion), in the box of `state`.
+
+        Returns:
+            (per-particle vectors, virial parts {name: (3, 3)}, the state with its
+            neighbour lists refreshed, error bits).
+        """
+        bound_box = box.bind(state.box_state)
+        vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
+        state = state.set(pair_list=pair_list)
+        if body_force is not None:
+            vectors = vectors + body_force(positions, state.parameters["body_force"]["amplitude"])
+        bits = jnp.asarray(0, jnp.int32)
+        for block in blocks:
+            law = block.law.with_parameters(state.parameters["bond"][block.species])
+            bonded = chain_bond_forces(
+                bound_box,
+                block.take(positions),
+                block.take(state.image),
+                law,
+                with_virial,
+                half_box_limit=spring_search is not None,
+            )
+            vectors = vectors.at[block.first : block.stop].add(bonded.forces.reshape(-1, 3))
+            if with_virial:
+                virial["bond"] = virial.get("bond", 0) + bonded.virial
+            bits = (
+                bits
+                | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
+                | jnp.where(bonded.past_half_box, errors.SPRING_PAST_HALF_BOX, 0)
+            )
+        if spring_search is not None:
+            vectors, virial, spring_pairs, spring_bits = spring_interactions(
+                positions, state, vectors, virial
+            )
+            state = state.set(spring_pairs=spring_pairs)
+            bits = bits | spring_bits
+        return vectors, virial, state, bits
+
+    return interactions
+
+
+def force_range(scene: Scene, blocks) -> tuple[int, int]:
+    """The index range (first, stop) of the particles that feel forces: all of them,
+    or with an MPCD solvent the monomers only ((0, 0) without polymers)."""
+    if scene.solvent.method != "mpcd":
+        return 0, scene.n_particles
+    if not blocks:
+        return 0, 0
+    return min(b.first for b in blocks), max(b.stop for b in blocks)
+
+
+def particle_masses(scene: Scene, dtype):
+    """(N,) particle masses in species order, or None when every mass is 1 (then no
+    mass arithmetic is traced)."""
+    species = scene.particles.species
+    if all(s.mass == 1.0 for s in species):
+        return None
+    return jnp.repeat(
+        jnp.asarray([s.mass for s in species], dtype),
+        jnp.asarray([s.count for s in species]),
+        total_repeat_length=scene.n_particles,
+    )
+
+
+def thermalization_cutoff(scene: Scene) -> float | None:
+    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
+    solvent = scene.solvent
+    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
+        return None
+    if solvent.thermalization_cutoff is None:
+        return scene.cutoff
+    return solvent.thermalization_cutoff
+
+
+@functools.lru_cache(maxsize=16)
+def build(scene: Scene) -> Simulation:
+    """Compose the scene's simulation (see the module docstring).
+
+    Cached per scene, so building an equal scene again reuses the compiled chunks.
+    """
+    dtype = jnp.dtype(scene.precision)
+    box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
+    check_resources(scene, box)
+    terms = pair_terms(scene, dtype)
+    blocks = chain_blocks(scene)
+    first, stop = force_range(scene, blocks)
+    local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
+    with_virial = "pressure" in scene.output.observables
+    masses = particle_masses(scene, dtype)
+    bath_cutoff = thermalization_cutoff(scene)
+    body_force = body_force_law(scene, dtype)
+    search = None
+    if terms or bath_cutoff is not None:
+        search = neighbor_search(
+            box,
+            stop - first,
+            max(scene.cutoff, bath_cutoff or 0.0),
+            scene.neighbors.skin,
+            scene.neighbors.method,
+            scene.neighbors.format,
+        )
+
+    spring_search = None
+    if scene.spring_reach is not None:
+        spring_search = SpringPairSearch(
+            box,
+            spring_table(blocks),
+            scene.spring_reach,
+            scene.neighbors.spring_skin,
+            max(free_spring_length(block.law, scene.solvent.kT) for block in blocks),
+            scene.neighbors.capacity_multiplier,
+        )
+    repulsion = None
+    if scene.spring_repulsion is not None:
+        repulsion = spring_repulsion_law(scene.spring_repulsion.table())
+
+    interactions = force_kernel(
+        box,
+        terms,
+        search,
+        local_blocks,
+        scene.cutoff,
+        with_virial,
+        body_force,
+        spring_search,
+        repulsion,
+    )
+
+    fluid = None
+    if scene.solvent.method == "hoogerbrugge_koelman":
+        advance = collide_and_stream(
+            box, scene.integrator.dt, interactions, scene.solvent.kT, dtype
+        )
+    elif scene.solvent.method == "mpcd":
+        advance = mpcd_step(scene, box, interactions, masses, (first, stop), with_virial, dtype)
+    elif bath_cutoff is not None:
+        lowe_andersen = lowe_andersen_thermostat(
+            scene.n_particles,
+            min(1.0, scene.solvent.collision_frequency * scene.integrator.dt),
+            scene.solvent.kT,
+            bath_cutoff,
+            scene.integrator.dt,
+            dtype,
+            search.half,
+            masses,
+            with_virial,
+        )
+
+        def thermalize(state, velocities):
+            """Thermalise at the state's positions and box; noise keyed by its step."""
+            key = noise.step_key(state.seed, state.step)
+            bound_box = box.bind(state.box_state)
+            return lowe_andersen(bound_box, state.positions, velocities, state.pair_list, key)
+
+        advance = thermalized_velocity_verlet(
+            box,
+            scene.integrator.dt,
+            interactions,
+            thermalize,
+            scene.solvent.kT,
+            dtype,
+            masses,
+            with_virial,
+        )
+    elif scene.solvent.method == "lattice_boltzmann":
+        fluid = fluid_parameters(scene)
+        advance = coupled_step(
+            box,
+            scene.integrator.dt,
+            md_steps_per_lattice_step(scene),
+            interactions,
+            fluid,
+            scene.solvent.friction,
+            dtype,
+            masses,
+            scene.solvent.noise,
+        )
+    else:
+        advance = modified_velocity_verlet(
+            box,
+            scene.integrator.dt,
+            scene.integrator.lambda_,
+            interactions,
+            scene.solvent.kT,
+            dtype,
+            masses,
+        )
+
+    observables = scene.output.observables
+    spring_pair_strengths = []  # (block, a of its species with itself)
+    if {"conformation", "pressure"} <= set(observables) and scene.pair is not None:
+        names = scene.species_names
+        spring_pair_strengths = [
+            (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
+            for block in blocks
+        ]
+    tagged_range = None
+    if "drag" in observables:
+        tagged_range = species_range(scene, scene.body_force.species)
+
+    def step_fn(previous):
+        state = advance(previous)
+        samples = step_samples(observables, state, masses)
+        bound_box = box.bind(state.box_state)
+        if "conformation" in observables:
+            samples.update(
+                conformation_samples(
+                    bound_box, state.positions, blocks, state.parameters, state.image
+                )
+            )
+            for block, strength in spring_pair_strengths:
+                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
+                    bound_box,
+                    state.positions,
+                    block,
+                    strength,
+                    scene.cutoff,
+                    scene.volume,
+                    state.image,
+                )
+        if "drag" in observables:
+            samples.update(relative_velocity_samples(state.velocities, tagged_range))
+        if "profile" in observables:
+            samples.update(
+                profile_samples(
+                    bound_box, state.positions, state.velocities, masses, scene.output.profile_bins
+                )
+            )
+        if "transverse_current" in observables:
+            samples["transverse_current"] = transverse_currents(
+                state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
+            )
+        if "dynamics" in observables:
+            observers = sample_every(
+                state.step,
+                scene.output.correlator_every,
+                state.observers,
+                lambda c: update_chain_correlators(
+                    c, bound_box, state.positions, state.image, blocks
+                ),
+            )
+            state = state.set(observers=observers)
+        if "spring_pairs" in observables:
+            # The same list slots at both ends of the step: crossings are reversals.
+            before = spring_search.measure(
+                previous.positions, state.spring_pairs, previous.box_state
+            )
+            after = spring_search.measure(state.positions, state.spring_pairs, state.box_state)
+            output = scene.output
+            samples.update(
+                spring_pair_samples(
+                    before, after, output.spring_pair_max, output.spring_pair_bins, dtype
+                )
+            )
+        return state, samples
+
+    def init_observers(state):
+        """The state with empty on-device accumulators (e.g. after equilibration).
+
+        `state` is one replica (positions (N, 3)) or a batch (B, N, 3) from
+        jaxdpd.run.ensemble; a batch gets B copies of one replica's empty accumulators
+        (they depend only on the shapes), stacked on a leading axis.
+        """
+        if "dynamics" not in observables:
+            return state
+        batch_shape = state.positions.shape[:-2]
+        if len(batch_shape) > 1:
+            raise ValueError(
+                f"init_observers: state.positions must be (N, 3) or (B, N, 3), "
+                f"got shape {state.positions.shape}"
+            )
+        positions, image, box_state = state.positions, state.image, state.box_state
+        if batch_shape:
+            positions, image = positions[0], image[0]
+            box_state = jax.tree.map(lambda leaf: leaf[0], box_state)
+        observers = init_chain_correlators(
+            box.bind(box_state), positions, image, blocks, scene.output.correlator_levels
+        )
+        return state.set(
+            observers=jax.tree.map(
+                lambda leaf: jnp.broadcast_to(leaf, batch_shape + leaf.shape), observers
+            )
+        )
+
+    def allocate_pairs(positions, box_state, minimum=None):
+        if search is None:
+            return _empty_pair_list(positions)
+        rows = positions[first:stop]
+        return search.allocate(rows, scene.neighbors.capacity_multiplier, minimum, box_state)
+
+    def init_fn():
+        positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
+        box_state = box.initial_state(dtype)
+        state = SimState(
+            positions=positions,
+            velocities=velocities,
+            forces=jnp.zeros_like(positions),
+            image=image,
+            species=species,
+            pair_list=allocate_pairs(positions, box_state),
+            virial={},
+            step=jnp.asarray(0, jnp.int32),
+            time=jnp.asarray(0.0, dtype),
+            seed=jnp.asarray(scene.seed, jnp.uint32),
+            flags=jnp.asarray(0, jnp.int32),
+            box_state=box_state,
+            parameters=scene_parameters(scene, blocks, dtype),
+            spring_pairs=allocate_spring_pairs(positions, box_state),
+        )
+        if bath_cutoff is not None:
+            state = state.set(solvent_state=empty_record(dtype))
+        if fluid is not None:
+            state = state.set(solvent_state=initial_fluid_state(fluid, scene.seed, dtype))
+        # Zeros of the virial parts a step records, so the state keeps one structure.
+        parts = jax.eval_shape(advance, state).virial
+        state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
+        state = init_observers(state)
+        if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
+            rows = slice(first, stop)
+            sub = state.set(image=image[rows], species=species[rows])
+            forces, virial, refreshed, bits = jax.jit(interactions)(
+                positions[rows], velocities[rows], sub
+            )
+            state = state.set(
+                forces=state.forces.at[rows].set(forces),
+                virial={**state.virial, **virial},
+                pair_list=refreshed.pair_list,
+                spring_pairs=refreshed.spring_pairs,
+                flags=bits,
+            )
+        return state
+
+    def allocate_spring_pairs(positions, box_state, minimum=None):
+        if spring_search is None:
+            return None
+        return spring_search.allocate(positions, box_state, minimum)
+
+    def reallocate(state, minimum=None):
+        if minimum is not None:
+            minimum = tuple(np.max(v) for v in minimum)  # a batch's largest needs
+        particles = None if minimum is None else minimum[:2]
+        state = state.set(pair_list=allocate_pairs(state.positions, state.box_state, particles))
+        if spring_search is None:
+            return state
+        # Without recorded needs, keep at least the longest spring seen so far.
+        springs = minimum[2:] if minimum is not None and len(minimum) > 2 else None
+        springs = springs or (0, 0, np.asarray(state.spring_pairs.longest))
+        return state.set(
+            spring_pairs=allocate_spring_pairs(state.positions, state.box_state, springs)
+        )
+
+    def buffer_needs(state) -> tuple:
+        pair_list = state.pair_list
+        needs = (np.asarray(pair_list.needed_pairs), np.asarray(pair_list.needed_cell_occupancy))
+        if spring_search is not None:
+            needs += spring_pair_needs(state.spring_pairs)
+        return needs
+
+    def buffer_shapes(state) -> tuple:
+        shapes = (state.pair_list.capacity, state.pair_list.cell_capacity)
+        if spring_search is not None:
+            shapes += spring_pair_shapes(state.spring_pairs)
+        return shapes
+
+    return Simulation(
+        scene,
+        box,
+        blocks,
+        dtype,
+        masses,
+        search,
+        spring_search,
+        init_fn,
+        step_fn,
+        reallocate,
+        init_observers,
+        buffer_needs,
+        buffer_shapes,
+    )
+
+
+def _empty_pair_list(positions):
+    """A one-slot, never-refreshed pair list for scenes without pair terms."""
+    n = positions.shape[0]
+    empty = jnp.full((1,), n, jnp.int32)
+    zero = jnp.asarray(0, jnp.int32)
+    return PairList(empty, empty, positions, None, zero, zero, jnp.asarray(False), zero)

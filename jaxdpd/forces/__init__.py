@@ -1,0 +1,1 @@
+"""Forces: pair laws and their sums, bond laws, spring–spring repulsion, body forces."""

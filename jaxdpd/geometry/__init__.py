@@ -1,0 +1,1 @@
+"""Geometry: periodic, sheared and elongated boxes, flows, neighbour lists, placement."""

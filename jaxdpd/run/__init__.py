@@ -1,0 +1,1 @@
+"""Running a scene: the chunked driver, the file-writing runner, the CLI, ensembles."""

@@ -1,0 +1,197 @@
+"""Command line.
+
+    jaxdpd run SCENE.toml [-o FILE] [--steps N] [-q] [--overwrite]
+    jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
+    jaxdpd demo [-o FILE] [-q]
+
+Exit status: 0 done; 2 invalid input (scene, file or arguments, including a file to
+restart that is damaged or incomplete; one line on stderr names the problem); 3 the
+simulation became invalid (the last good state is checkpointed); 4 the output could
+not be written (disk full, I/O error; the last checkpoint is intact and the command
+that resumes it is printed); 128 + signal number (130 for SIGINT, 143 for SIGTERM)
+when a signal stopped the run, after the chunk in flight, with a checkpoint and the
+command that resumes it.  SIGINT and SIGTERM are handled even when the shell started
+jaxdpd with them ignored (a background job); Ctrl-C before the run starts or after
+it ended exits 130 without a traceback.
+"""
+
+import argparse
+import shlex
+import shutil
+import signal
+import sys
+import time
+from importlib import resources
+
+from jaxdpd.engine.errors import SimulationError
+from jaxdpd.io.checkpoint import checkpoint_path, read_checkpoint_info
+from jaxdpd.io.errors import OutputError, RunFileError
+from jaxdpd.run.driver import RunInterrupted
+from jaxdpd.run.runner import prepare, prepare_resume
+from jaxdpd.scene import Scene
+
+DEMO_SCENE = "demo.toml"
+INVALID_INPUT = 2
+SIMULATION_FAILED = 3
+OUTPUT_FAILED = 4
+FINISHED = "end of run"
+
+
+def demo_scene() -> Scene:
+    """The embedded default scene (jaxdpd/scenes/demo.toml)."""
+    text = resources.files("jaxdpd.scenes").joinpath(DEMO_SCENE).read_text()
+    return Scene.from_toml_string(text)
+
+
+def _describe(scene: Scene) -> str:
+    s = scene
+    return (
+        f"{s.solvent.method} solvent, N = {s.n_particles}, ρ = {s.particles.density:.4g}, "
+        f"box = {' × '.join(f'{x:.4g}' for x in s.box.lengths)}, dt = {s.integrator.dt}, "
+        f"{s.run.equilibration} + {s.run.steps} steps, {s.precision}"
+    )
+
+
+def _refuse_to_clobber(path) -> None:
+    """Refuse to overwrite a file that holds a run which can still be resumed."""
+    try:
+        info = read_checkpoint_info(path)
+    except RunFileError:
+        return  # missing, not ours, or nothing to resume: overwriting loses nothing
+    if info.reason != FINISHED:
+        raise ValueError(
+            f"{path} holds an unfinished run (checkpoint at step {info.step}: "
+            f"{info.reason}); resume it with `jaxdpd run --restart {shlex.quote(str(path))}`, "
+            "or pass --overwrite to start afresh"
+        )
+
+
+def _prepare(args):
+    """(the prepared Run, its output path) from the command line; raises on bad input."""
+    options = {"progress": not args.quiet}
+    if args.command == "demo":
+        return prepare(demo_scene(), args.output, **options), args.output
+    if args.restart is not None:
+        if args.scene is not None:
+            raise ValueError("give a scene file or --restart FILE, not both")
+        path = args.restart
+        if args.output is not None and args.output != path:
+            # Continue in the copy, keep the original.
+            shutil.copyfile(path, args.output)
+            shutil.copyfile(checkpoint_path(path), checkpoint_path(args.output))
+            path = args.output
+        return prepare_resume(path, args.steps, **options), path
+    if args.scene is None:
+        raise ValueError("give a scene file (jaxdpd run SCENE.toml) or --restart FILE")
+    scene = Scene.from_toml(args.scene)
+    if args.steps is not None:
+        scene = scene.replace(run={"steps": args.steps})
+    path = args.output or scene.output.path
+    if path and not args.overwrite:
+        _refuse_to_clobber(path)
+    return prepare(scene, args.output, **options), path
+
+
+def _resume_hint(path) -> str:
+    return f"resume with:\n  jaxdpd run --restart {shlex.quote(str(path))}"
+
+
+def _last_checkpoint(path) -> str:
+    """Where a run that stopped on a write failure can be resumed from."""
+    try:
+        info = read_checkpoint_info(path)
+    except RunFileError:
+        return "no checkpoint was written before the failure: the run must start again"
+    return (
+        f"the checkpoint of step {info.step} ({checkpoint_path(path)}) is intact; remove "
+        f"the cause (free space), then {_resume_hint(path)}"
+    )
+
+
+def _execute(run, path) -> int:
+    print(f"jaxdpd: {_describe(run.scene)}", file=sys.stderr)
+    start = time.perf_counter()
+    try:
+        summary = run.execute()
+    except SimulationError as error:
+        where = f"; last good state checkpointed in {checkpoint_path(path)}" if path else ""
+        print(f"jaxdpd: run stopped: {error}{where}", file=sys.stderr)
+        return SIMULATION_FAILED
+    except OutputError as error:
+        print(f"jaxdpd: output failed: {error}\njaxdpd: {_last_checkpoint(path)}", file=sys.stderr)
+        return OUTPUT_FAILED
+    except RunInterrupted as interrupt:
+        print(f"jaxdpd: {interrupt}", file=sys.stderr)
+        if path:
+            print(
+                f"jaxdpd: checkpoint written to {checkpoint_path(path)}; {_resume_hint(path)}",
+                file=sys.stderr,
+            )
+        else:
+            print("jaxdpd: no output file was given, so the run cannot be resumed", file=sys.stderr)
+        return 128 + signal.Signals[interrupt.signal_name].value
+    print(summary.table())
+    print(f"total wall time {time.perf_counter() - start:.1f} s (compilation included)")
+    if path:
+        print(f"output written to {path}")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="jaxdpd", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    commands = parser.add_subparsers(dest="command", required=True)
+    run = commands.add_parser("run", help="run a scene file, or continue a run")
+    run.add_argument("scene", nargs="?", help="scene TOML file")
+    run.add_argument(
+        "--restart", metavar="FILE", help="continue the run checkpointed in FILE (appends to it)"
+    )
+    run.add_argument("-o", "--output", help="H5MD output file (overrides output.path)")
+    run.add_argument("--steps", type=int, help="override run.steps (production steps)")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    run.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="overwrite an output file holding an unfinished run",
+    )
+    demo = commands.add_parser("demo", help="run the embedded default scene")
+    demo.add_argument("-o", "--output", help="H5MD output file")
+    demo.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    ignored = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    if ignored:
+        # Started in the background: kill -INT should still stop the run (at start-up
+        # too), as Ctrl-C does in the foreground.  Put back on return.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return _run(args)
+    except KeyboardInterrupt:
+        # Before the run (building, compiling, opening files) or after it: nothing
+        # to checkpoint.  During the run, SignalGuard turns SIGINT into a stop.
+        print(
+            "\njaxdpd: interrupted by SIGINT before the first chunk or after the last "
+            "(no checkpoint written for it)",
+            file=sys.stderr,
+        )
+        return 128 + signal.SIGINT
+    finally:
+        if ignored:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run(args) -> int:
+    """Prepare and execute the command; the exit status."""
+    try:
+        prepared, path = _prepare(args)
+    except (ValueError, TypeError, OSError) as error:
+        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+        return INVALID_INPUT
+    except OutputError as error:
+        print(f"jaxdpd: output failed: {error}", file=sys.stderr)
+        return OUTPUT_FAILED
+    return _execute(prepared, path)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

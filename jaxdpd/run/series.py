@@ -1,0 +1,38 @@
+"""Run a simulation (one replica or a batch) and gather its time series on the host."""
+
+import jax.numpy as jnp
+import numpy as np
+
+from jaxdpd.run import driver, ensemble
+
+
+def collect(simulation, state, steps: int, chunk: int, on_chunk=None):
+    """Run `steps` steps and concatenate every chunk's series.
+
+    A single state runs with jaxdpd.run.driver, a batch (leading replica axis, as made by
+    jaxdpd.run.ensemble.replicate) with jaxdpd.run.ensemble; they are told apart by the rank
+    of `state.step`.
+
+    Args:
+        simulation: from jaxdpd.engine.build.build.
+        state: a SimState or a batch of them.
+        steps: steps to run (≥ 0).
+        chunk: steps per jitted chunk.
+        on_chunk: also called with each ChunkResult (e.g. to keep positions).
+    Returns:
+        (final state, name → NumPy array with time on axis 0, or on axis 1 after
+        the replica axis of a batch).
+    """
+    batched = jnp.ndim(state.step) == 1
+    run = ensemble.run if batched else driver.run
+    parts = {}
+
+    def keep(result):
+        for name, values in result.series.items():
+            parts.setdefault(name, []).append(np.asarray(values))
+        if on_chunk is not None:
+            on_chunk(result)
+
+    state = run(simulation, state, steps, chunk, on_chunk=keep)
+    axis = 1 if batched else 0
+    return state, {name: np.concatenate(values, axis=axis) for name, values in parts.items()}

@@ -1,0 +1,2 @@
+"""Solvent methods: Groot–Warren DPD, Lowe–Andersen, Hoogerbrugge–Koelman, MPCD and
+lattice Boltzmann."""

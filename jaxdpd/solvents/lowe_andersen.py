@@ -1,0 +1,359 @@
+"""Lowe–Andersen thermostat: pairwise Maxwellian thermalisation, exact and parallel.
+
+Lowe, Europhys. Lett. 47, 145 (1999); thesis §2.3.2, eqs. 2.19–2.22 and table 2.1.
+Every pair closer than the thermalisation cut-off r_T is selected with probability
+ΓΔt (Γ the bath collision frequency).  A selected pair gets a new relative velocity
+along e_ij = r_ij/|r_ij|, drawn from the Maxwell distribution of a pair,
+
+    u'_ij = ξ_ij √(k_BT/μ_ij),   μ_ij = m_i m_j/(m_i + m_j),   ξ_ij ~ N(0, 1)
+
+(for unit masses √(2k_BT), eq. 2.19), by equal and opposite momentum changes
+
+    m_i Δv_i = −m_j Δv_j = μ_ij (u'_ij − u_ij) e_ij,   u_ij = (v_i − v_j)·e_ij
+
+(eq. 2.21 with masses), so total momentum is conserved exactly.
+
+Sequential semantics, computed in parallel
+------------------------------------------
+Lowe's algorithm visits the selected pairs one after another: each pair sees the
+velocities left by the pairs before it.  (Summing all pair updates computed from the
+velocities before the sweep is a different algorithm, which overshoots once a
+particle has several selected partners and overheats or diverges at large ΓΔt.)  Here
+the visiting order is random and counter-based: pair (i, j) has the order key
+
+    k_ij = (priority_ij, i XOR j),
+
+with priority_ij the top bits of a hash of (seed, step, min(i,j), max(i,j)).  Pairs
+sharing particle i have distinct partners, hence distinct i XOR j, so k is a strict
+total order among the pairs of any one particle.  The sweep runs in rounds: in a
+round every selected pair whose key is the smallest among the pending pairs of BOTH
+its particles is applied.  These pairs share no particle, so they are applied at
+once.  When a pair is applied, all the lower-keyed pairs it conflicts with were
+applied in earlier rounds and all the higher-keyed ones are still pending, so every
+particle sees its pairs in key order; updates of disjoint pairs commute, hence the
+result equals the sequential sweep in key order exactly (ties in k between disjoint
+pairs are immaterial).  The pending pair of smallest key is always applicable, so
+the loop ends; the number of rounds is the longest key-increasing chain of
+conflicting pairs (tens at ΓΔt = 1; see benchmarks/lowe_andersen_cost.py).
+
+A round costs O(N), not O(number of pairs): the selected pairs are listed twice,
+once per particle (half-edges), sorted by (particle, k) into one uint64 key per
+half-edge; each particle then holds a pointer to its first pending half-edge.  A
+pair is ready when it is at the head of both its particles' lists, which each
+particle checks on its own (the partner is particle XOR (i XOR j)).  Both particles
+of a ready pair compute the same update from the same operands, each applies its
+own half: no scatter, and momentum is conserved to round-off.
+
+All random numbers are counter-based (jaxdpd.engine.noise): the selection uniform, the
+priority and the Gaussian ξ are separate streams of the pair hash, so a trajectory
+does not depend on the neighbour-list format, capacity or order.
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+from jax_md import dataclasses as jmd_dataclasses
+
+from jaxdpd.engine import noise
+from jaxdpd.forces.pair_sums import pair_geometry
+
+# Streams of jaxdpd.engine.noise.pair_bits; the Gaussian ξ uses streams 0 and 1
+# (jaxdpd.engine.noise.pair_gaussian).
+SELECTION_STREAM = 2
+PRIORITY_STREAM = 3
+
+# Components (a, b) of the symmetric impulse virial accumulated per particle.
+_VIRIAL_COMPONENTS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+@jmd_dataclasses.dataclass
+class LoweAndersenRecord:
+    """What the thermalisation of one step did (kept in SimState.solvent_state).
+
+    Attributes:
+        impulse_virial: (3, 3) Σ_pairs r_ij ⊗ μ_ij Δv_ij / Δt, the thermostat's part
+            of the virial (thesis eq. 3.47, third term; zeros unless the scene asks
+            for the pressure).
+        thermalized_pairs: int32, number of pairs selected this step.
+        rounds: int32, number of parallel rounds the sweep took.
+    """
+
+    impulse_virial: jnp.ndarray
+    thermalized_pairs: jnp.ndarray
+    rounds: jnp.ndarray
+
+
+def empty_record(dtype) -> LoweAndersenRecord:
+    """The record before the first step (no pair thermalised yet)."""
+    zero = jnp.asarray(0, jnp.int32)
+    return LoweAndersenRecord(jnp.zeros((3, 3), dtype), zero, zero)
+
+
+def order_key_bits(n_particles: int) -> tuple[int, int]:
+    """Bit layout of the uint64 half-edge sort key (owner | priority | i XOR j).
+
+    Args:
+        n_particles: N (the owner field also holds N, the "not selected" mark).
+    Returns:
+        (index_bits, priority_bits): index_bits = bit length of N, enough for a
+        particle index, for N and for i XOR j; priority_bits = min(32, 64 − 2
+        index_bits), i.e. the full 32-bit hash up to N = 65535 and fewer bits
+        beyond (ties are then broken by i XOR j, which keeps the order exact and
+        independent of the neighbour list).
+    """
+    index_bits = int(n_particles).bit_length()
+    priority_bits = min(32, 64 - 2 * index_bits)
+    if priority_bits < 1:
+        raise ValueError(f"n_particles = {n_particles}: too many particles for a 64-bit key")
+    return index_bits, priority_bits
+
+
+def pair_order_keys(key, i, j, n_particles: int):
+    """Order keys k_ij = (priority_ij << index_bits) | (i XOR j) of the sweep.
+
+    Args:
+        key: uint32 step key (jaxdpd.engine.noise.step_key).
+        i, j: (P,) int particle indices.
+        n_particles: N (sets the bit layout, see `order_key_bits`).
+    Returns:
+        (P,) uint64, symmetric in (i, j); pairs are visited in increasing k.
+    """
+    index_bits, priority_bits = order_key_bits(n_particles)
+    priority = noise.pair_bits(key, i, j, PRIORITY_STREAM) >> (32 - priority_bits)
+    tie_break = (i ^ j).astype(jnp.uint64)
+    return (priority.astype(jnp.uint64) << index_bits) | tie_break
+
+
+def selected(key, i, j, probability, dtype):
+    """True for the pairs thermalised this step: uniform variate < ΓΔt.
+
+    Args:
+        key: uint32 step key; i, j: (P,) particle indices.
+        probability: ΓΔt in [0, 1] (1 selects every pair).
+        dtype: floating dtype of the comparison.
+    """
+    uniform = noise.bits_to_unit_interval(noise.pair_bits(key, i, j, SELECTION_STREAM), dtype)
+    return uniform < jnp.asarray(probability, dtype)
+
+
+def target_relative_velocity(key, i, j, kT, reduced_mass, dtype):
+    """New relative normal velocity u'_ij = ξ_ij √(k_BT/μ_ij) (thesis eq. 2.19).
+
+    Args:
+        key: uint32 step key; i, j: particle indices (any shape).
+        kT: k_BT (energy).
+        reduced_mass: μ_ij = m_i m_j/(m_i + m_j), scalar or shaped like i.
+        dtype: floating dtype.
+    Returns:
+        Gaussian variates of variance k_BT/μ_ij, symmetric in (i, j).
+    """
+    return noise.pair_gaussian(key, i, j, dtype) * jnp.sqrt(kT / reduced_mass)
+
+
+def relative_normal_velocity(velocity_i, velocity_j, unit, streaming=None):
+    """u_ij = (v_i − v_j)·e_ij in the laboratory frame, from stored velocities.
+
+    The one place where the thermostat forms a pair's relative velocity.  In a
+    flowing box the stored velocities are peculiar (c = v − u(r)) and the flow's
+    part (L r_ij)·e_ij is added, r_ij the minimum image across the moving boundary:
+    the relative velocity across a Lees–Edwards boundary carries the jump γ̇ L_y x̂
+    (thesis eq. 3.18).  The thermostat must act on laboratory velocities, or it
+    exerts no shear stress (thesis §3.4).
+
+    Args:
+        velocity_i, velocity_j: (c_x, c_y, c_z) of the two particles, each (K,).
+        unit: (e_x, e_y, e_z), each (K,).
+        streaming: (K,) (L r_ij)·e_ij (PairGeometry.streaming), or None at rest.
+    Returns:
+        (K,) u_ij.
+    """
+    normal = sum((a - b) * e for a, b, e in zip(velocity_i, velocity_j, unit, strict=True))
+    return normal if streaming is None else normal + streaming
+
+
+class _HalfEdges(NamedTuple):
+    """Selected pairs listed once per particle, sorted by (particle, order key).
+
+    Attributes:
+        i, j: (H,) owner and partner of each half-edge; i ≥ N past the selected ones.
+        tie_break: (H,) int32 i XOR j (partner = owner XOR tie_break).
+        start, stop: (N,) each particle's half-edges are [start, stop).
+    """
+
+    i: jnp.ndarray
+    j: jnp.ndarray
+    tie_break: jnp.ndarray
+    start: jnp.ndarray
+    stop: jnp.ndarray
+
+
+def _half_edges(pair_i, pair_j, chosen, order_keys, n_particles: int) -> _HalfEdges:
+    """Sort the selected pairs' two half-edges by (owner, order key).
+
+    Args:
+        pair_i, pair_j: (P,) particle indices of the listed pairs.
+        chosen: (P,) bool, selected (each pair at most once).
+        order_keys: (P,) uint64 from `pair_order_keys`.
+        n_particles: N.
+    """
+    index_bits, _ = order_key_bits(n_particles)
+    owner_shift = 64 - index_bits
+    # Unselected half-edges all get the largest key: they sort last, as an owner
+    # ≥ N, and many equal keys sort faster than distinct ones.
+    unselected = jnp.uint64(2**64 - 1)
+
+    def keys(owner):
+        return jnp.where(chosen, (owner.astype(jnp.uint64) << owner_shift) | order_keys, unselected)
+
+    # One single-key sort: the owner is in the top bits, the order key below.
+    sorted_keys = jnp.sort(jnp.concatenate([keys(pair_i), keys(pair_j)]))
+    owner = (sorted_keys >> owner_shift).astype(jnp.int32)
+    tie_break = (sorted_keys & jnp.uint64((1 << index_bits) - 1)).astype(jnp.int32)
+    ones = chosen.astype(jnp.int32)
+    counts = jax.ops.segment_sum(ones, pair_i, n_particles) + jax.ops.segment_sum(
+        ones, pair_j, n_particles
+    )
+    stop = jnp.cumsum(counts, dtype=jnp.int32)
+    return _HalfEdges(owner, owner ^ tie_break, tie_break, stop - counts, stop)
+
+
+class _EdgeData(NamedTuple):
+    """What a half-edge's pair needs in the sweep, gathered per round by head index.
+
+    Attributes:
+        unit: (e_x, e_y, e_z), each (H,), e_ij from the partner j to the owner i.
+        distance: (H,) r_ij.
+        streaming: (H,) (L r_ij)·e_ij in a flowing box, else None.
+        target: (H,) new relative normal velocity u'_ij.
+        reduced_mass: μ_ij, (H,) or the scalar ½ (unit masses).
+        share: μ_ij/m_i, the owner's part of the velocity change, (H,) or ½.
+    """
+
+    unit: tuple
+    distance: jnp.ndarray
+    streaming: jnp.ndarray | None
+    target: jnp.ndarray
+    reduced_mass: object
+    share: object
+
+
+def _edge_data(bound_box, positions, edges: _HalfEdges, key, kT, masses, dtype) -> _EdgeData:
+    """Geometry, masses and Maxwellian targets of every half-edge (owner ≥ N: inert)."""
+    geometry = pair_geometry(bound_box, positions, edges, jnp.inf, True)
+    unit = tuple(s * geometry.inverse_distance for s in geometry.separation)
+    if masses is None:
+        reduced_mass, share = 0.5, 0.5
+    else:
+        mass_i, mass_j = masses[geometry.i], masses[geometry.j]
+        reduced_mass = mass_i * mass_j / (mass_i + mass_j)
+        share = mass_j / (mass_i + mass_j)
+    target = target_relative_velocity(key, geometry.i, geometry.j, kT, reduced_mass, dtype)
+    return _EdgeData(unit, geometry.distance, geometry.streaming, target, reduced_mass, share)
+
+
+def _per_edge(value, h):
+    """value[h] for per-half-edge arrays; scalars (unit masses) pass through."""
+    return value[h] if jnp.ndim(value) else value
+
+
+def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool):
+    """The rounds of the sequential-equivalent sweep (see the module docstring).
+
+    Args:
+        edges: the sorted half-edges.
+        data: their pair data.
+        velocities: (N, 3) before the sweep.
+        with_virial: also accumulate Σ r_ij ⊗ μ Δu e_ij.
+    Returns:
+        ((N, 3) velocities after the sweep, the (3, 3) Σ r_ij ⊗ μ_ij Δu_ij e_ij,
+        int32 number of rounds).
+    """
+    n, dtype = velocities.shape[0], velocities.dtype
+    ids = jnp.arange(n, dtype=jnp.int32)
+    last = edges.i.shape[0] - 1
+
+    def pending(carry):
+        return jnp.any(carry[0] < edges.stop)
+
+    def round_(carry):
+        head, v, virial_parts, rounds = carry
+        h = jnp.minimum(head, last)
+        # i XOR j of each particle's first pending pair (0: none pending).
+        head_pair = jnp.where(head < edges.stop, edges.tie_break[h], 0)
+        partner = ids ^ head_pair
+        ready = (head_pair != 0) & (head_pair[partner] == head_pair)
+        e = [component[h] for component in data.unit]
+        streaming = None if data.streaming is None else data.streaming[h]
+        normal = relative_normal_velocity(v, [c[partner] for c in v], e, streaming)
+        change = jnp.where(ready, data.target[h] - normal, 0)
+        speed = change * _per_edge(data.share, h)
+        v = tuple(c + speed * unit_c for c, unit_c in zip(v, e, strict=True))
+        if with_virial:
+            # r_ij ⊗ μ Δu e_ij = μ Δu r e_a e_b, half at each of the two particles.
+            weight = change * 0.5 * data.distance[h] * _per_edge(data.reduced_mass, h)
+            virial_parts = tuple(
+                part + weight * e[a] * e[b]
+                for part, (a, b) in zip(virial_parts, _VIRIAL_COMPONENTS, strict=True)
+            )
+        return head + ready, v, virial_parts, rounds + 1
+
+    parts = tuple(jnp.zeros(n, dtype) for _ in _VIRIAL_COMPONENTS) if with_virial else ()
+    # Velocity components as separate arrays (structure of arrays) in the loop.
+    carry = (edges.start, tuple(velocities.T), parts, jnp.asarray(0, jnp.int32))
+    _, components, parts, rounds = jax.lax.while_loop(pending, round_, carry)
+    virial = jnp.zeros((3, 3), dtype)
+    for part, (a, b) in zip(parts, _VIRIAL_COMPONENTS[: len(parts)], strict=True):
+        total = jnp.sum(part)
+        virial = virial.at[a, b].set(total).at[b, a].set(total)
+    return jnp.stack(components, axis=1), virial, rounds
+
+
+def lowe_andersen_thermostat(
+    n_particles: int,
+    collision_probability: float,
+    kT: float,
+    cutoff: float,
+    dt: float,
+    dtype,
+    half: bool,
+    masses=None,
+    with_virial: bool = False,
+):
+    """The Lowe–Andersen thermalisation of one step (see the module docstring).
+
+    Args:
+        n_particles: N.
+        collision_probability: ΓΔt in [0, 1], the chance that a pair within the
+            cut-off is thermalised in a step.
+        kT: k_BT of the bath.
+        cutoff: thermalisation cut-off r_T (pairs with r_ij < r_T take part).
+        dt: time step Δt (the impulse virial is a mean force over Δt, eq. 2.22).
+        dtype: floating dtype of positions and velocities.
+        half: whether the neighbour lists hold each pair once (else twice).
+        masses: (N,) particle masses, or None for unit masses (μ_ij = ½).
+        with_virial: record the impulse virial (else zeros, nothing traced).
+    Returns:
+        `thermalize(bound_box, positions, velocities, pair_list, key) ->
+        (velocities, record)` with the box bound to its current state
+        (`box.bind(box_state)`), positions and (peculiar) velocities (N, 3), a
+        PairList covering r_T, the uint32 step key (jaxdpd.engine.noise.step_key) and a
+        `LoweAndersenRecord`.
+    """
+    n = n_particles
+    kT_ = jnp.asarray(kT, dtype)
+    inverse_dt = jnp.asarray(1.0 / dt, dtype)
+
+    def thermalize(bound_box, positions, velocities, pair_list, key):
+        pairs = pair_geometry(bound_box, positions, pair_list, cutoff, half)
+        chosen = pairs.within & selected(key, pairs.i, pairs.j, collision_probability, dtype)
+        if not half:  # a full list holds (i, j) and (j, i): keep one
+            chosen = chosen & (pairs.i < pairs.j)
+        order_keys = pair_order_keys(key, pairs.i, pairs.j, n)
+        edges = _half_edges(pairs.i, pairs.j, chosen, order_keys, n)
+        data = _edge_data(bound_box, positions, edges, key, kT_, masses, dtype)
+        velocities, impulse_moment, rounds = _sweep(edges, data, velocities, with_virial)
+        pair_count = jnp.sum(chosen, dtype=jnp.int32)
+        return velocities, LoweAndersenRecord(impulse_moment * inverse_dt, pair_count, rounds)
+
+    return thermalize

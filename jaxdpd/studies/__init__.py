@@ -1,0 +1,1 @@
+"""Studies built on runs: fitting DPD parameters, pathwise gradients, relaxation times."""

@@ -1,1 +1,0 @@
-"""Thermostats and solvent momentum-exchange rules."""
