@@ -1,11 +1,20 @@
 """Checks that turn bad scene input into errors naming the field and what is valid.
 
 Each reader takes the section dictionary, the key and the dotted path of the
-section, and raises `TypeError` for a wrong type and `ValueError` for a value out of
-range, before anything is traced.
+section, and raises `TypeError` for a wrong type and `SceneError` (a `ValueError`)
+for a value out of range, before anything is traced.
 """
 
 import math
+
+
+class SceneError(ValueError):
+    """Bad scene input: `field` is the dotted path of the offending field
+    ("solvent.kT", "polymers[0].bond.law"); the message starts with it."""
+
+    def __init__(self, field: str, message: str):
+        self.field = field
+        super().__init__(f"{field}: {message}" if message else field)
 
 _MISSING = object()
 INT32_MAX = 2**31 - 1
