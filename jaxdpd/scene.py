@@ -114,7 +114,7 @@ from dataclasses import asdict, dataclass, field
 from fractions import Fraction
 
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
-from jaxdpd.geometry.boxes import make_box
+from jaxdpd.geometry.boxes import BOXES, box_for_flow, make_box
 from jaxdpd.solvents.mpcd.cells import collision_grid
 from jaxdpd.validation import (
     REQUIRED,
@@ -145,9 +145,7 @@ NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
-BOX_KINDS = ("periodic", "lees_edwards", "kraynik_reinelt")
 FLOW_KINDS = ("shear", "planar_elongation")
-BOX_OF_FLOW = {None: "periodic", "shear": "lees_edwards", "planar_elongation": "kraynik_reinelt"}
 # The fields of each flow kind in the [flow] section.
 FLOW_FIELDS = {
     "shear": ("shear_rate", "oscillation_frequency"),
@@ -461,11 +459,12 @@ class Scene:
         flow = _read_flow(data.get("flow"), solvent, neighbors)
         box_section = data.get("box", {})
         check_keys(box_section, ("kind", "lengths"), "box")
-        box_kind = read_choice(box_section, "kind", "box", BOX_KINDS, BOX_OF_FLOW[_kind(flow)])
-        if box_kind != BOX_OF_FLOW[_kind(flow)]:
+        flow_box = box_for_flow(_kind(flow))
+        box_kind = read_choice(box_section, "kind", "box", BOXES.names(), flow_box)
+        if box_kind != flow_box:
             raise ValueError(
                 f"box.kind = {box_kind!r} does not fit flow.kind = {_kind(flow)!r}: "
-                f"that flow needs box.kind = {BOX_OF_FLOW[_kind(flow)]!r} (or leave box.kind out)"
+                f"that flow needs box.kind = {flow_box!r} (or leave box.kind out)"
             )
         lengths = _read_lengths(box_section)
         polymer_entries = _polymer_entries(data.get("polymers", []))

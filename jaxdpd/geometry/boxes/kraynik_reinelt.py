@@ -52,6 +52,7 @@ Image counters count the crossings of each face of the cell in use (frame axes 0
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import jax.numpy as jnp
 import numpy as np
@@ -94,6 +95,17 @@ class KraynikReineltBox:
     lengths: tuple[float, float, float]
     elongation_rate: float = 0.0
     case: int = 1
+
+    name: ClassVar[str] = "kraynik_reinelt"
+    flow_kind: ClassVar[str | None] = "planar_elongation"
+
+    @classmethod
+    def from_scene(cls, lengths, flow=None) -> "KraynikReineltBox":
+        """The box of box.lengths deformed by a [flow] of kind "planar_elongation"
+        (at rest without one)."""
+        if flow is None:
+            return cls(lengths)
+        return cls(lengths, flow.elongation_rate, flow.kraynik_reinelt_case)
 
     def __post_init__(self):
         side, _, other = self.lengths

@@ -36,6 +36,7 @@ for the most tilted frame, |Δ|/L_y ≤ L_x/(2 L_y).
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import jax.numpy as jnp
 from jax_md import dataclasses as jmd_dataclasses
@@ -104,6 +105,17 @@ class LeesEdwardsBox:
     lengths: tuple[float, float, float]
     shear_rate: float = 0.0
     oscillation_frequency: float | None = None
+
+    name: ClassVar[str] = "lees_edwards"
+    flow_kind: ClassVar[str | None] = "shear"
+
+    @classmethod
+    def from_scene(cls, lengths, flow=None) -> "LeesEdwardsBox":
+        """The box of box.lengths sheared by a [flow] of kind "shear" (at rest
+        without one)."""
+        if flow is None:
+            return cls(lengths)
+        return cls(lengths, flow.shear_rate, flow.oscillation_frequency)
 
     @property
     def volume(self) -> float:

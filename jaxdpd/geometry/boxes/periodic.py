@@ -26,6 +26,7 @@ The interface (bound box):
 """
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import jax.numpy as jnp
 
@@ -39,6 +40,14 @@ class PeriodicBox:
     """
 
     lengths: tuple[float, float, float]
+
+    name: ClassVar[str] = "periodic"
+    flow_kind: ClassVar[str | None] = None  # the [flow] kind this box carries
+
+    @classmethod
+    def from_scene(cls, lengths, flow=None) -> "PeriodicBox":
+        """The box of a scene's box.lengths (a box at rest has no flow)."""
+        return cls(lengths)
 
     # -- static description ----------------------------------------------------------
     @property
