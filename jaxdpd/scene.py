@@ -15,46 +15,25 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 particles; a Kraynik–Reinelt box needs Lx = Lz)
     [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
                 oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
-                needs a Lees–Edwards box and solvent.method "dpd", "lowe_andersen" or
-                "mpcd" (MPCD shear: the viscosity is −⟨P_yx⟩/γ̇, the collisional stress
-                is not symmetric)
+                needs a Lees–Edwards box and a solvent method with a shear step
+                ("dpd", "lowe_andersen", "mpcd"; MPCD shear: the viscosity is
+                −⟨P_yx⟩/γ̇, the collisional stress is not symmetric)
                 kind = "planar_elongation": elongation_rate ε̇ (1/time, any sign;
                 u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
                 = 1..4 (lattice of thesis table 3.27, default 1); needs a
-                Kraynik–Reinelt box and solvent.method "dpd" or "lowe_andersen"
+                Kraynik–Reinelt box and a solvent method with an elongation step
+                ("dpd", "lowe_andersen")
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
                 (cubic box of side (N/ρ)^(1/3))
-    [solvent]   method = "dpd" (Groot–Warren): kT > 0, gamma ≥ 0 (0 = thermostat
-                off), optional sigma (must equal √(2γkT)), noise = "uniform"|"gaussian"
-                method = "hoogerbrugge_koelman": pi0, omega, delta_pi (half-width);
-                weight_density n > 0 of W(r) = 3(1 − r/r_c)/(π n r_c³) (default the
-                box's N/V); initial_kT > 0 (default 0.0016): the model sets no
-                temperature (its own follows from pi0, omega, delta_pi and n), so this is
-                the temperature of the starting velocities, the Hookean bond length the
-                chains are placed with and the scale of the runaway check
-                method = "lowe_andersen": kT > 0, collision_frequency Γ ≥ 0 (0 =
-                thermostat off; Γ · integrator.dt ≤ 1), thermalization_cutoff r_T > 0
-                (default: cutoff)
-                method = "lattice_boltzmann" (fluctuating D3Q19 fluid with friction-
-                coupled beads; the particles are the beads): kT ≥ 0 (0 = no
-                fluctuations), grid_spacing a > 0 (box edges whole multiples of it),
-                time_step τ > 0 (a whole multiple of integrator.dt), mass_density ρ > 0,
-                kinematic_viscosity ν > 0, kinematic_bulk_viscosity ν_b > 0 (default
-                ν), friction ζ > 0 (bare bead–fluid friction), noise = "uniform"|
-                "gaussian"; units are the scene's own (e.g. Lennard-Jones units)
-                method = "mpcd" (stochastic rotation dynamics, Mussawisade et al. 2005
-                §II): kT > 0 (initial velocities, thermostat), cell_size a > 0
-                (every box edge a whole multiple ≥ 2), rotation_angle α in (0, 180]
-                degrees (default 130), collision_time h > 0 (default 0.1),
-                thermostat = "none" | "maxwell_boltzmann_scaling" (cell level,
-                Huang et al. 2010), collision = "cell" (SRD) | "particle" (the
-                solvent-free Rouse variant, §IV.A: every particle must be a monomer);
-                particles per cell ρ = particles.density · a³.  Solvent particles
-                stream freely; monomers move by velocity Verlet with integrator.dt =
-                h_p (h/h_p a whole number, default h_p = h) and join the collisions
-                with their species masses
+    [solvent]   method = a registered solvent method (jaxdpd.solvents.SOLVENTS):
+                "dpd" (Groot–Warren), "hoogerbrugge_koelman", "lowe_andersen",
+                "lattice_boltzmann", "mpcd"; each method's module documents its
+                fields, defaults and ranges (jaxdpd.solvents.groot_warren,
+                .hoogerbrugge_koelman, .lowe_andersen, .lattice_boltzmann.method,
+                .mpcd.method) and states which flows, pair and body forces and
+                observables it supports (jaxdpd.solvents.component)
     [pair]      kind = "soft_repulsion"; a = number | S×S symmetric list |
                 {"A-B" = a_AB, ...} over species names (dpd, lowe_andersen; with mpcd it acts
                 among the [[polymers]] species only)
@@ -81,9 +60,11 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 | "linear" (a, force 3a(1 − D/range) at contact distance D; Pan–Manke
                 eq. 5.5); range = r_c/3 > 0; distance_floor = 0.001 r_c (≥ 0, < range);
                 needs [[polymers]]
-    [integrator] dt > 0 (default 1 for hoogerbrugge_koelman, solvent.time_step for
-                lattice_boltzmann); lambda in [0, 1] (dpd only: Lowe–Andersen and
-                lattice-Boltzmann steps have no velocity-dependent force to predict)
+    [integrator] dt > 0 (default 0.04, or the solvent method's: 1 for
+                hoogerbrugge_koelman, solvent.time_step for lattice_boltzmann,
+                solvent.collision_time for mpcd); lambda in [0, 1] (not a field of
+                lowe_andersen and lattice_boltzmann, whose steps have no
+                velocity-dependent force to predict)
     [neighbors] method = "cell_list" | "jax_md" | "all_pairs" (every pair, fixed: for
                 small systems such as one chain); format (jax_md) = "dense" |
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1;
@@ -93,8 +74,9 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation", "dynamics", "profile",
                 "transverse_current", "drag" (needs body_force.kind = "tagged"),
-                "spring_pairs"} (default temperature and pressure; no pressure with
-                lattice_boltzmann); rdf_bins, rdf_max; profile_bins ≥ 1 (slabs along y);
+                "spring_pairs"} (default temperature and pressure, less those the
+                solvent method cannot provide: no pressure with lattice_boltzmann);
+                rdf_bins, rdf_max; profile_bins ≥ 1 (slabs along y);
                 spring_pair_bins ≥ 1, spring_pair_max > 0 (default r_c/3: histogram of
                 spring closest approaches, and spring crossings; needs [[polymers]]);
                 trajectory_every (0 = never); correlator_every ≥ 1 (steps between
@@ -115,9 +97,10 @@ from fractions import Fraction
 
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
 from jaxdpd.geometry.boxes import BOXES, box_for_flow, make_box
-from jaxdpd.solvents.mpcd.cells import collision_grid
+from jaxdpd.solvents import SOLVENTS, SolventMethod, SolventParameters
 from jaxdpd.validation import (
     REQUIRED,
+    SceneError,
     check_keys,
     read_choice,
     read_list,
@@ -125,35 +108,18 @@ from jaxdpd.validation import (
     read_string,
 )
 
-SOLVENT_METHODS = ("dpd", "hoogerbrugge_koelman", "lowe_andersen", "lattice_boltzmann", "mpcd")
-MPCD_THERMOSTATS = ("none", "maxwell_boltzmann_scaling")
-MPCD_COLLISIONS = ("cell", "particle")
-LOWE_ANDERSEN_KEYS = ("collision_frequency", "thermalization_cutoff")
-LATTICE_BOLTZMANN_FIELDS = (
-    "grid_spacing",
-    "time_step",
-    "mass_density",
-    "kinematic_viscosity",
-    "kinematic_bulk_viscosity",
-    "friction",
-)
 PAIR_KINDS = ("soft_repulsion", "wca")
-# Largest thermal Mach number² k_BT/(ρ a³ c_s²) of a lattice-Boltzmann node: beyond it
-# the density fluctuations (its square root) make negative densities likely.
-MAX_THERMAL_MACH_NUMBER_SQ = 0.1
-NOISE_LAWS = ("uniform", "gaussian")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
 FLOW_KINDS = ("shear", "planar_elongation")
+# What a solvent method lacks that does not support a flow kind (in messages).
+FLOW_STEPS = {"shear": "Lees–Edwards step", "planar_elongation": "Kraynik–Reinelt step"}
 # The fields of each flow kind in the [flow] section.
 FLOW_FIELDS = {
     "shear": ("shear_rate", "oscillation_frequency"),
     "planar_elongation": ("elongation_rate", "kraynik_reinelt_case"),
 }
-FLOW_SOLVENTS = ("dpd", "lowe_andersen", "mpcd")
-# Solvents with a Kraynik–Reinelt (planar elongation) step: the pair-based ones.
-ELONGATION_SOLVENTS = ("dpd", "lowe_andersen")
 OBSERVABLES = (
     "temperature",
     "pressure",
@@ -213,49 +179,6 @@ class Flow:
     oscillation_frequency: float | None = None
     elongation_rate: float = 0.0
     kraynik_reinelt_case: int = 1
-
-
-@dataclass(frozen=True)
-class Solvent:
-    """Solvent method and its parameters (unused ones stay at their defaults).
-
-    `kT` is the set temperature k_BT, except for "hoogerbrugge_koelman", which has
-    none: there it is the scene's initial_kT (see HOOGERBRUGGE_KOELMAN_KT), the
-    temperature the velocities start at and chains are placed for.  `weight_density`
-    is the n of the Hoogerbrugge–Koelman weight function, None for the box's N/V.
-    """
-
-    method: str
-    kT: float = 1.0
-    gamma: float = 4.5
-    noise: str = "uniform"
-    pi0: float = 1.0 / 3.0
-    omega: float = 4.0 / 3.0
-    delta_pi: float = 1.0 / 3.0
-    weight_density: float | None = None
-    collision_frequency: float = 0.0
-    thermalization_cutoff: float | None = None
-    grid_spacing: float = 1.0
-    time_step: float = 1.0
-    mass_density: float = 1.0
-    kinematic_viscosity: float = 1.0
-    kinematic_bulk_viscosity: float = 1.0
-    friction: float = 1.0
-    cell_size: float = 1.0
-    rotation_angle: float = 130.0
-    collision_time: float = 0.1
-    thermostat: str = "none"
-    collision: str = "cell"
-
-    @property
-    def sigma(self) -> float:
-        """Random-force amplitude σ = √(2 γ k_BT) (thesis eq. 2.8)."""
-        return math.sqrt(2 * self.gamma * self.kT)
-
-    @property
-    def rotation_angle_radians(self) -> float:
-        """The MPCD rotation angle α in radians (the scene gives degrees)."""
-        return math.radians(self.rotation_angle)
 
 
 @dataclass(frozen=True)
@@ -390,7 +313,7 @@ class Scene:
     cutoff: float
     box: Box
     particles: Particles
-    solvent: Solvent
+    solvent: SolventParameters
     pair: Pair | None
     integrator: Integrator
     polymers: tuple[Polymer, ...] = ()
@@ -453,10 +376,13 @@ class Scene:
         precision = read_choice(data, "precision", "", PRECISIONS, "float32")
         cutoff = read_number(data, "cutoff", "", 1.0, minimum=0, exclusive_minimum=True)
         if "solvent" not in data:
-            raise ValueError(f"solvent: required section is missing; method: {SOLVENT_METHODS}")
+            raise ValueError(
+                f"solvent: required section is missing; method: {list(SOLVENTS.names())}"
+            )
         solvent = _read_solvent(data["solvent"])
+        method = SOLVENTS.get(solvent.method)
         neighbors = _read_neighbors(data.get("neighbors", {}))
-        flow = _read_flow(data.get("flow"), solvent, neighbors)
+        flow = _read_flow(data.get("flow"), method, neighbors)
         box_section = data.get("box", {})
         check_keys(box_section, ("kind", "lengths"), "box")
         flow_box = box_for_flow(_kind(flow))
@@ -474,10 +400,12 @@ class Scene:
             if isinstance(entry.get("species"), str) and isinstance(entry.get("beads"), int)
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
-        pair = _read_pair(data.get("pair"), solvent, particles.species)
+        if data.get("pair") is not None and not method.pair_forces:
+            _refuse_section("pair", method, "pair_forces")
+        pair = _read_pair(data.get("pair"), particles.species)
         if pair is not None and pair.kind == "wca":
             cutoff = _wca_cutoff(data, pair)
-        range_name, pair_range = _pair_range(cutoff, solvent)
+        range_name, pair_range = method.pair_range(solvent, cutoff)
         list_cutoff = pair_range + neighbors.skin
         heights = make_box(box_kind, lengths, flow).cell_heights
         for axis, length, height in zip("xyz", lengths, heights, strict=True):
@@ -488,36 +416,16 @@ class Scene:
                     f"must exceed 2 ({range_name} + neighbors.skin) = {2 * list_cutoff:.4g}; "
                     "enlarge the box or add particles"
                 )
-        if solvent.method == "hoogerbrugge_koelman" and any(
-            s.mass != 1.0 for s in particles.species
-        ):
-            raise ValueError(
-                "particles.species[].mass: the Hoogerbrugge–Koelman update is written for "
-                "unit masses; remove the masses or use solvent.method = 'dpd'"
-            )
-        integrator = _read_integrator(data.get("integrator"), solvent)
-        _check_collision_probability(solvent, integrator)
-        if solvent.method == "lattice_boltzmann":
-            _check_lattice(solvent, lengths, integrator)
+        integrator = _read_integrator(data.get("integrator"), method, solvent)
         polymers = _read_polymers(polymer_entries, particles.species)
-        if solvent.method == "mpcd":
-            _check_mpcd(solvent, lengths, particles.species, polymers, pair)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), heights, run.chunk, solvent, cutoff)
+        output = _read_output(data.get("output", {}), heights, run.chunk, method, cutoff)
         if "transverse_current" in output.observables and len(set(lengths)) != 1:
             raise ValueError(
                 f"output.observables: 'transverse_current' averages the six transverse pairs "
                 f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
             )
         spring_repulsion = _read_spring_repulsion(data.get("spring_repulsion"), polymers, cutoff)
-        if solvent.method == "mpcd" and (
-            spring_repulsion is not None or "spring_pairs" in output.observables
-        ):
-            raise ValueError(
-                "spring_repulsion / output.observables 'spring_pairs': not available with "
-                "solvent.method = 'mpcd' (its monomer step does not carry the spring-pair "
-                "list); remove them"
-            )
         _check_spring_reach(spring_repulsion, output, neighbors, heights)
         # Springs must stay shorter than half the box where they are read by minimum
         # image: in a flowing box (Kraynik–Reinelt counters give no unwrapped
@@ -541,7 +449,9 @@ class Scene:
                 "rest or in shear (Kraynik–Reinelt positions cannot be unwrapped); under "
                 "elongation, measure the chains with 'conformation'"
             )
-        body_force = _read_body_force(data.get("body_force"), solvent, particles)
+        if data.get("body_force") is not None and not method.body_forces:
+            _refuse_section("body_force", method, "body_forces")
+        body_force = _read_body_force(data.get("body_force"), particles)
         if "drag" in output.observables and _kind(body_force) != "tagged":
             raise ValueError(
                 "output.observables: 'drag' measures the drift of tagged particles; add "
@@ -553,7 +463,7 @@ class Scene:
                     f"output.observables: {name!r} measures polymers; add a [[polymers]] "
                     "section or remove it"
                 )
-        return cls(
+        scene = cls(
             seed=seed,
             precision=precision,
             cutoff=cutoff,
@@ -570,6 +480,8 @@ class Scene:
             run=run,
             output=output,
         )
+        method.check(scene)
+        return scene
 
     # -- derived quantities --------------------------------------------------------
     @property
@@ -578,12 +490,16 @@ class Scene:
         return self.particles.count
 
     @property
+    def solvent_component(self) -> SolventMethod:
+        """The component of the solvent method (jaxdpd.solvents.SOLVENTS)."""
+        return SOLVENTS.get(self.solvent.method)
+
+    @property
     def step_time(self) -> float:
-        """Simulated time per step: the collision time h of an MPCD solvent (its
-        monomer sub-steps integrator.dt run inside the step), else integrator.dt."""
-        if self.solvent.method == "mpcd":
-            return self.solvent.collision_time
-        return self.integrator.dt
+        """Simulated time per step: integrator.dt, or the solvent method's (the
+        collision time h of an MPCD solvent, whose monomer sub-steps integrator.dt run
+        inside the step)."""
+        return self.solvent_component.step_time(self)
 
     @property
     def volume(self) -> float:
@@ -606,7 +522,7 @@ class Scene:
         """Whether the particles' total momentum is constant (False for beads that
         exchange momentum with a lattice-Boltzmann fluid): 3N − 3 or 3N kinetic
         degrees of freedom."""
-        return self.solvent.method != "lattice_boltzmann"
+        return self.solvent_component.conserves_particle_momentum
 
     @property
     def species_names(self) -> tuple[str, ...]:
@@ -617,7 +533,7 @@ class Scene:
         """The full resolved scene as plain data; `from_dict` reloads it unchanged."""
         data = asdict(self)
         data["integrator"]["lambda"] = data["integrator"].pop("lambda_")
-        if self.solvent.method in ("lowe_andersen", "lattice_boltzmann"):
+        if not self.solvent_component.integrator_lambda:
             del data["integrator"]["lambda"]
         data["box"]["lengths"] = list(self.box.lengths)
         data["particles"] = {
@@ -626,7 +542,7 @@ class Scene:
                 {"name": s.name, "count": s.count, "mass": s.mass} for s in self.particles.species
             ],
         }
-        data["solvent"] = _solvent_dict(self.solvent)
+        data["solvent"] = self.solvent_component.to_dict(self.solvent)
         if self.pair is None:
             del data["pair"]
         elif self.pair.kind == "wca":
@@ -687,246 +603,43 @@ class Scene:
         return Scene.from_dict(data)
 
 
-def _solvent_dict(solvent: Solvent) -> dict:
-    if solvent.method == "lattice_boltzmann":
-        fields = {name: getattr(solvent, name) for name in LATTICE_BOLTZMANN_FIELDS}
-        return {"method": solvent.method, "kT": solvent.kT, "noise": solvent.noise, **fields}
-    if solvent.method == "mpcd":
-        return {"method": "mpcd", "kT": solvent.kT} | {
-            key: getattr(solvent, key) for key in MPCD_FIELDS
-        }
-    if solvent.method == "dpd":
-        return {
-            "method": "dpd",
-            "kT": solvent.kT,
-            "gamma": solvent.gamma,
-            "noise": solvent.noise,
-        }
-    if solvent.method == "lowe_andersen":
-        data = {
-            "method": "lowe_andersen",
-            "kT": solvent.kT,
-            "collision_frequency": solvent.collision_frequency,
-        }
-        if solvent.thermalization_cutoff is not None:
-            data["thermalization_cutoff"] = solvent.thermalization_cutoff
-        return data
-    data = {
-        "method": solvent.method,
-        "pi0": solvent.pi0,
-        "omega": solvent.omega,
-        "delta_pi": solvent.delta_pi,
-        "initial_kT": solvent.kT,
-    }
-    if solvent.weight_density is not None:
-        data["weight_density"] = solvent.weight_density
-    return data
-
-
-MPCD_FIELDS = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
-HOOGERBRUGGE_KOELMAN_FIELDS = ("pi0", "omega", "delta_pi", "weight_density", "initial_kT")
-# Default initial_kT of a Hoogerbrugge–Koelman scene: the kinetic temperature its
-# default fluid reaches by itself (Π0 = 1/3, ω = 4/3, Δ = 1/3, n = 3, δt = 1:
-# 0.00161 ± 0.000002, benchmarks/accuracy_cost.py, README accuracy table).  Starting
-# there instead of at 1 matters for chains: a Hookean spring placed for k_BT = 1
-# (√(3/K) ≈ 22 r_c at K = 0.006) or kicked by beads 600 times too hot tears far
-# past the box before the fluid's friction (≈ ω Σ_j W_ij ≈ 4/3 per collision) cools
-# it.  Other parameter sets reach other temperatures: measure it and set initial_kT.
-HOOGERBRUGGE_KOELMAN_KT = 0.0016
-DPD_FIELDS = ("gamma", "sigma", "noise")
-
-
-SOLVENT_FIELDS = {
-    "dpd": DPD_FIELDS,
-    "hoogerbrugge_koelman": HOOGERBRUGGE_KOELMAN_FIELDS,
-    "lowe_andersen": LOWE_ANDERSEN_KEYS,
-    "lattice_boltzmann": (*LATTICE_BOLTZMANN_FIELDS, "noise"),
-    "mpcd": MPCD_FIELDS,
-}
-
-
-def _refuse_fields_of_other_methods(section, method: str) -> None:
-    """Fields that belong to another solvent method are an error, not ignored."""
-    own = set(SOLVENT_FIELDS[method])
-    for owner, fields in SOLVENT_FIELDS.items():
-        misplaced = sorted((set(fields) - own) & set(section))
-        if owner != method and misplaced:
-            raise ValueError(f"solvent: {misplaced} belong to method {owner!r}, not {method!r}")
-
-
-def _read_mpcd_solvent(section) -> Solvent:
-    """The MPCD (SRD) solvent fields (module docstring)."""
-    path = "solvent"
-    return Solvent(
-        "mpcd",
-        kT=read_number(section, "kT", path, 1.0, minimum=0, exclusive_minimum=True),
-        cell_size=read_number(section, "cell_size", path, 1.0, minimum=0, exclusive_minimum=True),
-        rotation_angle=read_number(
-            section, "rotation_angle", path, 130.0, minimum=0, exclusive_minimum=True, maximum=180
-        ),
-        collision_time=read_number(
-            section, "collision_time", path, 0.1, minimum=0, exclusive_minimum=True
-        ),
-        thermostat=read_choice(section, "thermostat", path, MPCD_THERMOSTATS, "none"),
-        collision=read_choice(section, "collision", path, MPCD_COLLISIONS, "cell"),
-    )
-
-
-def _read_solvent(section) -> Solvent:
-    check_keys(
-        section,
-        ("method", "kT", *(field for fields in SOLVENT_FIELDS.values() for field in fields)),
-        "solvent",
-    )
-    method = read_choice(section, "method", "solvent", SOLVENT_METHODS)
-    readers = {
-        "lowe_andersen": _read_lowe_andersen,
-        "lattice_boltzmann": _read_lattice_boltzmann,
-        "mpcd": _read_mpcd_solvent,
-    }
-    if method in readers:
-        solvent = readers[method](section)  # their own messages for common mistakes
-        _refuse_fields_of_other_methods(section, method)
-        return solvent
-    _refuse_fields_of_other_methods(section, method)
-    if method == "dpd":
-        kT = read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True)
-        gamma = read_number(section, "gamma", "solvent", 4.5, minimum=0)
-        if "sigma" in section:
-            sigma = read_number(section, "sigma", "solvent", minimum=0)
-            expected = math.sqrt(2 * gamma * kT)
-            if not math.isclose(sigma, expected, rel_tol=1e-9, abs_tol=1e-12):
-                raise ValueError(
-                    f"solvent.sigma = {sigma!r}: fluctuation–dissipation requires "
-                    f"σ = √(2 γ kT) = {expected:.6g}; give gamma (and kT) only, or a "
-                    "consistent sigma"
-                )
-        noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
-        return Solvent(method, kT=kT, gamma=gamma, noise=noise)
-    if "kT" in section:
-        raise ValueError(
-            f"solvent: ['kT'] belongs to the methods that set a temperature, not {method!r}, "
-            "whose temperature follows from pi0, omega, delta_pi and the density; give "
-            "solvent.initial_kT for the starting velocities and chain placement"
+def _read_solvent(section) -> SolventParameters:
+    """The [solvent] section, read by the component its method names; fields of other
+    methods are an error naming their owner, not ignored."""
+    fields = {method.name: method.fields for method in SOLVENTS}
+    check_keys(section, ("method", "kT", *(f for own in fields.values() for f in own)), "solvent")
+    if "method" not in section:
+        raise SceneError(
+            "solvent.method", f"required field is missing; valid: {list(SOLVENTS.names())}"
         )
-    positive = {"minimum": 0, "exclusive_minimum": True}
-    return Solvent(
-        method,
-        kT=read_number(section, "initial_kT", "solvent", HOOGERBRUGGE_KOELMAN_KT, **positive),
-        pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
-        omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
-        delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
-        weight_density=read_number(section, "weight_density", "solvent", None, **positive),
-    )
-
-
-def _read_lowe_andersen(section) -> Solvent:
-    """The Lowe–Andersen thermostat's parameters (thesis §2.3.2)."""
-    misplaced = sorted({"gamma", "sigma", "noise", "pi0", "omega", "delta_pi"} & set(section))
-    if misplaced:
-        raise ValueError(
-            f"solvent: {misplaced} are not parameters of method 'lowe_andersen' (it has "
-            f"kT and {list(LOWE_ANDERSEN_KEYS)}; the pair collisions replace the "
-            "dissipative and random forces)"
-        )
-    if "collision_frequency" not in section:
-        raise ValueError(
-            "solvent.collision_frequency: required field is missing (the bath collision "
-            "frequency Γ of method 'lowe_andersen', ≥ 0, with Γ · integrator.dt ≤ 1)"
-        )
-    return Solvent(
-        "lowe_andersen",
-        kT=read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True),
-        collision_frequency=read_number(section, "collision_frequency", "solvent", minimum=0),
-        thermalization_cutoff=read_number(
-            section, "thermalization_cutoff", "solvent", None, minimum=0, exclusive_minimum=True
-        ),
-    )
-
-
-def _pair_range(cutoff: float, solvent: Solvent) -> tuple[str, float]:
-    """(field name, value) of the longest pair range: r_c, or a longer r_T."""
-    if solvent.thermalization_cutoff is not None and solvent.thermalization_cutoff > cutoff:
-        return "solvent.thermalization_cutoff", solvent.thermalization_cutoff
-    return "cutoff", cutoff
-
-
-def _check_collision_probability(solvent: Solvent, integrator: Integrator) -> None:
-    """Γ Δt is the probability that a pair is thermalised in a step: at most 1."""
-    if solvent.method != "lowe_andersen":
-        return
-    frequency, dt = solvent.collision_frequency, integrator.dt
-    if frequency * dt > 1 + 1e-12:
-        raise ValueError(
-            f"solvent.collision_frequency × integrator.dt = {frequency:g} × {dt:g} = "
-            f"{frequency * dt:.4g} > 1: Γ Δt is the probability that a pair is thermalised "
-            f"in a step (thesis §2.3.2); use collision_frequency ≤ 1/dt = {1 / dt:.6g} "
-            f"or integrator.dt ≤ 1/collision_frequency = {1 / frequency:.6g}"
-        )
-
-
-def _read_lattice_boltzmann(section) -> Solvent:
-    """The fields of solvent.method = "lattice_boltzmann" (see the module docstring)."""
-    misplaced = sorted({"gamma", "sigma", "pi0", "omega", "delta_pi"} & set(section))
-    if misplaced:
-        raise ValueError(f"solvent: {misplaced} are not fields of method 'lattice_boltzmann'")
-    positive = {"minimum": 0, "exclusive_minimum": True}
-    fields = {
-        name: read_number(section, name, "solvent", **positive)
-        for name in (
-            "grid_spacing",
-            "time_step",
-            "mass_density",
-            "kinematic_viscosity",
-            "friction",
-        )
-    }
-    fields["kinematic_bulk_viscosity"] = read_number(
-        section, "kinematic_bulk_viscosity", "solvent", fields["kinematic_viscosity"], **positive
-    )
-    kT = read_number(section, "kT", "solvent", 1.0, minimum=0)
-    noise = read_choice(section, "noise", "solvent", NOISE_LAWS, "uniform")
-    a, tau, rho = fields["grid_spacing"], fields["time_step"], fields["mass_density"]
-    mach_sq = 3 * kT * tau * tau / (rho * a**5)
-    if mach_sq > MAX_THERMAL_MACH_NUMBER_SQ:
-        raise ValueError(
-            f"solvent: the thermal Mach number² kT/(mass_density a³ c_s²) = {mach_sq:.3g} "
-            f"(c_s² = a²/(3 τ²)) exceeds {MAX_THERMAL_MACH_NUMBER_SQ}: node densities would "
-            "fluctuate by more than a third and turn negative; reduce time_step or kT, or "
-            "raise mass_density or grid_spacing"
-        )
-    return Solvent("lattice_boltzmann", kT=kT, noise=noise, **fields)
-
-
-def lattice_nodes(lengths, grid_spacing: float) -> tuple[int, int, int]:
-    """Nodes per box edge, n_α = L_α/a (whole numbers, checked by the scene)."""
-    return tuple(round(length / grid_spacing) for length in lengths)
-
-
-def _check_lattice(solvent: Solvent, lengths, integrator: Integrator) -> None:
-    """Box edges whole multiples of the grid spacing, τ a whole multiple of Δt."""
-    a = solvent.grid_spacing
-    for axis, (length, n) in enumerate(zip(lengths, lattice_nodes(lengths, a), strict=True)):
-        if n < 1 or not math.isclose(n * a, length, rel_tol=1e-9):
+    method = SOLVENTS.get(section["method"])
+    solvent = method.read(section)  # its own messages for common mistakes first
+    own = set(method.fields)
+    for owner, owned in fields.items():
+        misplaced = sorted((set(owned) - own) & set(section))
+        if owner != method.name and misplaced:
             raise ValueError(
-                f"box.lengths: L_{'xyz'[axis]} = {length:.6g} is not a whole number of "
-                f"solvent.grid_spacing = {a:.6g}; make every edge n a (e.g. "
-                f"{max(1, n) * a:.6g})"
+                f"solvent: {misplaced} belong to method {owner!r}, not {method.name!r}"
             )
-    substeps = round(solvent.time_step / integrator.dt)
-    if substeps < 1 or not math.isclose(substeps * integrator.dt, solvent.time_step, rel_tol=1e-9):
-        raise ValueError(
-            f"solvent.time_step = {solvent.time_step:.6g}: the LB time step must be a whole "
-            f"number n ≥ 1 of MD steps integrator.dt = {integrator.dt:.6g} (e.g. "
-            f"{max(1, substeps) * integrator.dt:.6g})"
-        )
+    return solvent
+
+
+def _refuse_section(name: str, method: SolventMethod, capability: str) -> None:
+    """A [pair] or [body_force] section the solvent method has no place for
+    (`capability`: the SolventMethod attribute that allows it)."""
+    able = [m.name for m in SOLVENTS if getattr(m, capability)]
+    raise ValueError(
+        f"{name}: solvent.method = {method.name!r} takes no [{name}] (methods that do: "
+        f"{able}); remove the [{name}] section"
+    )
 
 
 def _kind(section: Flow | BodyForce | None) -> str | None:
     return None if section is None else section.kind
 
 
-def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
+def _read_flow(section, method: SolventMethod, neighbors: Neighbors) -> Flow | None:
+    """The [flow] section; `method` is the solvent component, which must support it."""
     if section is None:
         return None
     check_keys(section, ("kind", *{f for fields in FLOW_FIELDS.values() for f in fields}), "flow")
@@ -937,10 +650,13 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
             f"flow: {misplaced} do not belong to flow.kind = {kind!r}; its fields are "
             f"{list(FLOW_FIELDS[kind])}"
         )
-    if solvent.method not in FLOW_SOLVENTS:
+    if kind not in method.flows:
+        able = [m.name for m in SOLVENTS if kind in m.flows]
+        missing = FLOW_STEPS[kind] if method.flows else "SLLOD integrator"
         raise ValueError(
-            f"flow: solvent.method = {solvent.method!r} has no SLLOD integrator; use one "
-            f"of {list(FLOW_SOLVENTS)} or remove the [flow] section"
+            f"flow.kind = {kind!r}: solvent.method = {method.name!r} supports "
+            f"{list(method.flows)} (no {missing}); use one of {able} or remove the [flow] "
+            "section"
         )
     if neighbors.method != "cell_list":
         raise ValueError(
@@ -949,11 +665,6 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
             "'cell_list' with a [flow]"
         )
     if kind == "planar_elongation":
-        if solvent.method not in ELONGATION_SOLVENTS:
-            raise ValueError(
-                f"flow: solvent.method = {solvent.method!r} has no Kraynik–Reinelt step; "
-                f"planar elongation needs one of {list(ELONGATION_SOLVENTS)}"
-            )
         return Flow(
             kind,
             elongation_rate=read_number(section, "elongation_rate", "flow"),
@@ -968,15 +679,10 @@ def _read_flow(section, solvent: Solvent, neighbors: Neighbors) -> Flow | None:
     return Flow(kind, shear_rate, frequency)
 
 
-def _read_body_force(section, solvent: Solvent, particles: Particles) -> BodyForce | None:
+def _read_body_force(section, particles: Particles) -> BodyForce | None:
     if section is None:
         return None
     check_keys(section, ("kind", "amplitude", "waves", "species"), "body_force")
-    if solvent.method != "dpd":
-        raise ValueError(
-            f"body_force: needs a thermostatted force-based solvent (solvent.method = 'dpd'), "
-            f"not {solvent.method!r}"
-        )
     kind = read_choice(section, "kind", "body_force", BODY_FORCE_KINDS)
     amplitude = read_number(section, "amplitude", "body_force")
     if kind == "cosine":
@@ -1139,14 +845,9 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
     raise ValueError("particles.species: give every species a count, or every one a fraction")
 
 
-def _read_pair(section, solvent: Solvent, species) -> Pair | None:
+def _read_pair(section, species) -> Pair | None:
     if section is None:
         return None
-    if solvent.method == "hoogerbrugge_koelman":
-        raise ValueError(
-            "pair: the Hoogerbrugge–Koelman update carries its own conservative part "
-            "(solvent.pi0); remove the [pair] section"
-        )
     check_keys(section, ("kind", "a", "epsilon", "sigma"), "pair")
     kind = read_choice(section, "kind", "pair", PAIR_KINDS, "soft_repulsion")
     if kind == "wca":
@@ -1292,68 +993,16 @@ def _read_bond(section, path: str) -> dict:
     return bond
 
 
-def _read_integrator(section, solvent: Solvent) -> Integrator:
+def _read_integrator(section, method: SolventMethod, solvent: SolventParameters) -> Integrator:
+    """dt (default the solvent method's) and λ, with the method's rules on both."""
     section = section if section is not None else {}
     check_keys(section, ("dt", "lambda"), "integrator")
-    if solvent.method == "lowe_andersen" and "lambda" in section:
-        raise ValueError(
-            "integrator.lambda: the Lowe–Andersen step has no velocity-dependent force, so "
-            "the λ of Groot and Warren's modified velocity Verlet plays no role; remove it"
-        )
-    if solvent.method == "lattice_boltzmann" and "lambda" in section:
-        raise ValueError(
-            "integrator.lambda: the beads in a lattice-Boltzmann solvent move by velocity "
-            "Verlet around the friction step (no λ); remove it"
-        )
-    default_dt = {
-        "hoogerbrugge_koelman": 1.0,
-        "lattice_boltzmann": solvent.time_step,
-        "mpcd": solvent.collision_time,
-    }.get(solvent.method, 0.04)
+    default_dt = method.default_dt(solvent)
     dt = read_number(section, "dt", "integrator", default_dt, minimum=0, exclusive_minimum=True)
     lam = read_number(section, "lambda", "integrator", 0.5, minimum=0, maximum=1)
-    if solvent.method == "mpcd":
-        h = solvent.collision_time
-        substeps = round(h / dt)
-        if substeps < 1 or abs(substeps * dt - h) > 1e-9 * h:
-            raise ValueError(
-                f"integrator.dt = {dt!r}: the monomer sub-step h_p must divide "
-                f"solvent.collision_time h = {h!r} a whole number of times (h/h_p = "
-                f"{h / dt:.6g}); e.g. dt = {h / max(1, math.ceil(h / dt)):.6g}"
-            )
-        if lam != 0.5:
-            raise ValueError(
-                f"integrator.lambda = {lam!r}: MPCD monomers move by plain velocity "
-                "Verlet (λ = 0.5; Mussawisade et al. §II); remove integrator.lambda"
-            )
-    return Integrator(dt=dt, lambda_=lam)
-
-
-def _check_mpcd(solvent: Solvent, lengths, species, polymers, pair) -> None:
-    """Cross-section checks of an MPCD scene (module docstring)."""
-    collision_grid(lengths, solvent.cell_size)
-    chained = {p.species for p in polymers}
-    names = [s.name for s in species]
-    positions = [k for k, name in enumerate(names) if name in chained]
-    if positions and positions[-1] - positions[0] + 1 != len(positions):
-        raise ValueError(
-            f"particles.species: with solvent.method = 'mpcd' the chained species "
-            f"{sorted(chained)} must be adjacent in the species list (monomers form one "
-            f"index range); reorder {names}"
-        )
-    if solvent.collision == "particle" and set(names) != chained:
-        free = [name for name in names if name not in chained]
-        raise ValueError(
-            f"solvent.collision = 'particle' is the solvent-free Rouse variant (every "
-            f"monomer's velocity rotated alone); species {free} are not chained: give "
-            "them [[polymers]] entries, remove them, or use collision = 'cell'"
-        )
-    if pair is not None and not chained:
-        raise ValueError(
-            "pair: with solvent.method = 'mpcd' pair forces act among the [[polymers]] "
-            "species only (solvent particles feel no forces); add [[polymers]] or remove "
-            "the [pair] section"
-        )
+    integrator = Integrator(dt=dt, lambda_=lam)
+    method.check_integrator(solvent, section, integrator)
+    return integrator
 
 
 def _read_run(section) -> Run:
@@ -1365,7 +1014,7 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) -> Output:
+def _read_output(section, heights, chunk: int, method: SolventMethod, cutoff: float) -> Output:
     check_keys(
         section,
         (
@@ -1385,14 +1034,12 @@ def _read_output(section, heights, chunk: int, solvent: Solvent, cutoff: float) 
         ),
         "output",
     )
-    lattice = solvent.method == "lattice_boltzmann"
-    default = ["temperature"] if lattice else ["temperature", "pressure"]
+    unavailable = method.unavailable_observables  # of the solvent method
+    default = [name for name in ("temperature", "pressure") if name not in unavailable]
     observables = read_list(section, "observables", "output", default)
-    if lattice and "pressure" in observables:
-        raise ValueError(
-            "output.observables: 'pressure' of a lattice-Boltzmann scene would need the "
-            "fluid's stress, which is not measured; remove it"
-        )
+    for name, reason in unavailable.items():
+        if name in observables:
+            raise ValueError(f"output.observables: {name!r} {reason}; remove it")
     for name in observables:
         if name not in OBSERVABLES:
             raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")

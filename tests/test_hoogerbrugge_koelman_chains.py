@@ -17,7 +17,8 @@ from jaxdpd.engine.errors import SimulationError
 from jaxdpd.observables.thermo import reduce_samples
 from jaxdpd.run import driver
 from jaxdpd.run.runner import simulate
-from jaxdpd.scene import HOOGERBRUGGE_KOELMAN_KT, Scene
+from jaxdpd.scene import Scene
+from jaxdpd.solvents.hoogerbrugge_koelman import HOOGERBRUGGE_KOELMAN_KT
 
 WEAK = {"law": "hookean", "spring_constant": 0.006}  # Schlijper et al.'s weak spring
 STRONG = {"law": "fraenkel", "spring_constant": 0.25, "rest_length": 0.85}

@@ -3,7 +3,6 @@
 import pytest
 from conftest import scene_dict
 
-from jaxdpd.engine.build import thermalization_cutoff
 from jaxdpd.scene import Scene
 
 LOWE_ANDERSEN = {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 50.0}
@@ -77,15 +76,15 @@ def test_unit_collision_probability_is_allowed_and_round_trips():
     assert scene.solvent.collision_frequency * scene.integrator.dt == pytest.approx(1.0)
     assert "lambda" not in scene.to_dict()["integrator"]
     assert Scene.from_dict(scene.to_dict()) == scene
-    assert thermalization_cutoff(scene) == scene.cutoff  # r_T defaults to r_c
+    assert scene.solvent_component.bath_cutoff(scene) == scene.cutoff  # r_T defaults to r_c
 
 
 def test_thermalization_cutoff_resolution():
     scene = Scene.from_dict(lowe_andersen_dict({"thermalization_cutoff": 1.2}))
-    assert thermalization_cutoff(scene) == 1.2
+    assert scene.solvent_component.bath_cutoff(scene) == 1.2
     assert Scene.from_dict(scene.to_dict()) == scene
     off = Scene.from_dict(lowe_andersen_dict({"collision_frequency": 0.0}))
-    assert thermalization_cutoff(off) is None  # Γ = 0: no thermostat is composed
+    assert off.solvent_component.bath_cutoff(off) is None  # Γ = 0: no thermostat is composed
 
 
 def test_polymers_may_use_a_lowe_andersen_solvent():

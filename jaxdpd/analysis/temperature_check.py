@@ -31,25 +31,6 @@ from jaxdpd.analysis.statistics import block_average
 RELATIVE_TOLERANCE = 0.03
 STANDARD_ERRORS = 3.0
 
-# What to change, per solvent method (field names of the scene).
-_FIXES = {
-    "dpd": (
-        "above Δt ≈ 0.06 reduce integrator.dt (keep integrator.lambda near 0.5–0.65); "
-        "under shear rates near 1 and above the heating hardly depends on Δt: lower the "
-        "rate, or use solvent.method = 'lowe_andersen', which heats about a quarter as "
-        "much (benchmarks/stability_map.py; the thesis stays at rates ≤ 0.3, §4.2.7)"
-    ),
-    "lowe_andersen": (
-        "lower the flow rate (the heating at rates near 1 and above hardly depends on "
-        "Δt) or reduce integrator.dt; collision_frequency · dt must stay ≤ 1"
-    ),
-    "mpcd": (
-        "reduce solvent.collision_time, lower the flow rate, or set solvent.thermostat "
-        "= 'maxwell_boltzmann_scaling' (SRD without a thermostat heats under flow)"
-    ),
-    "lattice_boltzmann": "reduce integrator.dt (the beads' friction step) or solvent.time_step",
-}
-
 
 def is_off(mean: float, error: float, set_value: float) -> bool:
     """Whether a mean temperature departs from `set_value` by more than
@@ -66,7 +47,7 @@ def set_temperature(scene) -> float | None:
     """The thermostat's k_BT of a scene, or None where the scene sets none to compare
     with (Hoogerbrugge–Koelman, whose temperature follows from its collision rule, or
     a lattice-Boltzmann fluid without fluctuations)."""
-    if scene.solvent.method not in _FIXES or scene.solvent.kT <= 0:
+    if not scene.solvent_component.sets_temperature or scene.solvent.kT <= 0:
         return None
     return scene.solvent.kT
 
@@ -83,7 +64,7 @@ def temperature_warning(scene, mean: float, error: float) -> str | None:
         f"temperature: measured k_BT = {mean:.4g}{spread} against the set "
         f"solvent.kT = {set_value:g} ({relative:+.1%}; the thermostat does not hold it, "
         f"so every average of this run is at another state point); "
-        f"{_FIXES[scene.solvent.method]}"
+        f"{scene.solvent_component.heating_advice}"
     )
 
 

@@ -6,11 +6,10 @@ conservative force, with γ = 0 no dissipative or random force, with Lowe–Ande
 kernel, without [body_force] no external force, with no pair term or thermostat at
 all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
 without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
-With solvent.method = "lattice_boltzmann" the particles are beads coupled by
-friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
-(jaxdpd.solvents.lattice_boltzmann); with its k_BT = 0 no noise is traced.  With an MPCD
-solvent only the monomers feel forces: the force kernel and its neighbour search
-cover their index range alone.
+The solvent method's component (jaxdpd.solvents.SOLVENTS) adds its pair terms, the
+reach of a pair thermostat, the range of particles that feel forces (e.g. only the
+monomers of an MPCD solvent: the force kernel and its neighbour search cover them
+alone), its state beside the particles (SimState.solvent_state) and the step itself.
 
 The bond constants and the body-force amplitude are read from
 `SimState.parameters` (jaxdpd.engine.parameters): one compiled step serves every value.
@@ -26,11 +25,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.engine import errors, noise
-from jaxdpd.engine.integrators import (
-    collide_and_stream,
-    modified_velocity_verlet,
-    thermalized_velocity_verlet,
-)
 from jaxdpd.engine.parameters import scene_parameters
 from jaxdpd.engine.state import SimState
 from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
@@ -67,12 +61,7 @@ from jaxdpd.observables.thermo import step_samples
 from jaxdpd.observables.transverse_current import transverse_currents
 from jaxdpd.run.resources import check_resources
 from jaxdpd.scene import Scene
-from jaxdpd.solvents.groot_warren import groot_warren_term
-from jaxdpd.solvents.hoogerbrugge_koelman import hoogerbrugge_koelman_term
-from jaxdpd.solvents.lattice_boltzmann import fluid_parameters, md_steps_per_lattice_step
-from jaxdpd.solvents.lattice_boltzmann.integrator import coupled_step, initial_fluid_state
-from jaxdpd.solvents.lowe_andersen import empty_record, lowe_andersen_thermostat
-from jaxdpd.solvents.mpcd.step import mpcd_step
+from jaxdpd.solvents import StepContext
 
 
 @dataclass(frozen=True)
@@ -129,30 +118,14 @@ class Simulation:
 
 
 def pair_terms(scene: Scene, dtype) -> list:
-    """The pair laws the scene names, in the order they are summed."""
+    """The pair laws the scene names, in the order they are summed: the [pair] law,
+    then the solvent method's terms."""
     terms = []
-    solvent = scene.solvent
     if scene.pair is not None and scene.pair.kind == "wca":
         terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
     elif scene.pair is not None:
         terms.append(soft_repulsion_term(scene.pair.a, dtype))
-    if solvent.method == "dpd" and solvent.gamma > 0:
-        terms.append(
-            groot_warren_term(solvent.gamma, solvent.kT, scene.integrator.dt, solvent.noise, dtype)
-        )
-    if solvent.method == "hoogerbrugge_koelman":
-        terms.append(
-            hoogerbrugge_koelman_term(
-                solvent.weight_density or scene.particles.density,
-                scene.cutoff,
-                solvent.pi0,
-                solvent.omega,
-                solvent.delta_pi,
-                1.0,
-                scene.integrator.dt,
-                dtype,
-            )
-        )
+    terms.extend(scene.solvent_component.pair_terms(scene, dtype))
     return terms
 
 
@@ -285,16 +258,6 @@ def force_kernel(
     return interactions
 
 
-def force_range(scene: Scene, blocks) -> tuple[int, int]:
-    """The index range (first, stop) of the particles that feel forces: all of them,
-    or with an MPCD solvent the monomers only ((0, 0) without polymers)."""
-    if scene.solvent.method != "mpcd":
-        return 0, scene.n_particles
-    if not blocks:
-        return 0, 0
-    return min(b.first for b in blocks), max(b.stop for b in blocks)
-
-
 def particle_masses(scene: Scene, dtype):
     """(N,) particle masses in species order, or None when every mass is 1 (then no
     mass arithmetic is traced)."""
@@ -308,16 +271,6 @@ def particle_masses(scene: Scene, dtype):
     )
 
 
-def thermalization_cutoff(scene: Scene) -> float | None:
-    """r_T of an active Lowe–Andersen thermostat (default r_c), else None."""
-    solvent = scene.solvent
-    if solvent.method != "lowe_andersen" or solvent.collision_frequency == 0:
-        return None
-    if solvent.thermalization_cutoff is None:
-        return scene.cutoff
-    return solvent.thermalization_cutoff
-
-
 @functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
@@ -327,13 +280,14 @@ def build(scene: Scene) -> Simulation:
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
     check_resources(scene, box)
+    solvent = scene.solvent_component
     terms = pair_terms(scene, dtype)
     blocks = chain_blocks(scene)
-    first, stop = force_range(scene, blocks)
+    first, stop = solvent.force_range(scene, blocks)
     local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
     with_virial = "pressure" in scene.output.observables
     masses = particle_masses(scene, dtype)
-    bath_cutoff = thermalization_cutoff(scene)
+    bath_cutoff = solvent.bath_cutoff(scene)
     body_force = body_force_law(scene, dtype)
     search = None
     if terms or bath_cutoff is not None:
@@ -372,65 +326,9 @@ def build(scene: Scene) -> Simulation:
         repulsion,
     )
 
-    fluid = None
-    if scene.solvent.method == "hoogerbrugge_koelman":
-        advance = collide_and_stream(
-            box, scene.integrator.dt, interactions, scene.solvent.kT, dtype
-        )
-    elif scene.solvent.method == "mpcd":
-        advance = mpcd_step(scene, box, interactions, masses, (first, stop), with_virial, dtype)
-    elif bath_cutoff is not None:
-        lowe_andersen = lowe_andersen_thermostat(
-            scene.n_particles,
-            min(1.0, scene.solvent.collision_frequency * scene.integrator.dt),
-            scene.solvent.kT,
-            bath_cutoff,
-            scene.integrator.dt,
-            dtype,
-            search.half,
-            masses,
-            with_virial,
-        )
-
-        def thermalize(state, velocities):
-            """Thermalise at the state's positions and box; noise keyed by its step."""
-            key = noise.step_key(state.seed, state.step)
-            bound_box = box.bind(state.box_state)
-            return lowe_andersen(bound_box, state.positions, velocities, state.pair_list, key)
-
-        advance = thermalized_velocity_verlet(
-            box,
-            scene.integrator.dt,
-            interactions,
-            thermalize,
-            scene.solvent.kT,
-            dtype,
-            masses,
-            with_virial,
-        )
-    elif scene.solvent.method == "lattice_boltzmann":
-        fluid = fluid_parameters(scene)
-        advance = coupled_step(
-            box,
-            scene.integrator.dt,
-            md_steps_per_lattice_step(scene),
-            interactions,
-            fluid,
-            scene.solvent.friction,
-            dtype,
-            masses,
-            scene.solvent.noise,
-        )
-    else:
-        advance = modified_velocity_verlet(
-            box,
-            scene.integrator.dt,
-            scene.integrator.lambda_,
-            interactions,
-            scene.solvent.kT,
-            dtype,
-            masses,
-        )
+    advance = solvent.advance(
+        StepContext(scene, box, interactions, masses, (first, stop), search, with_virial, dtype)
+    )
 
     observables = scene.output.observables
     spring_pair_strengths = []  # (block, a of its species with itself)
@@ -553,15 +451,14 @@ def build(scene: Scene) -> Simulation:
             parameters=scene_parameters(scene, blocks, dtype),
             spring_pairs=allocate_spring_pairs(positions, box_state),
         )
-        if bath_cutoff is not None:
-            state = state.set(solvent_state=empty_record(dtype))
-        if fluid is not None:
-            state = state.set(solvent_state=initial_fluid_state(fluid, scene.seed, dtype))
+        solvent_state = solvent.initial_solvent_state(scene, dtype)
+        if solvent_state is not None:
+            state = state.set(solvent_state=solvent_state)
         # Zeros of the virial parts a step records, so the state keeps one structure.
         parts = jax.eval_shape(advance, state).virial
         state = state.set(virial=jax.tree.map(lambda w: jnp.zeros(w.shape, w.dtype), parts))
         state = init_observers(state)
-        if stop > first and scene.solvent.method != "hoogerbrugge_koelman":
+        if stop > first and solvent.initial_forces:
             rows = slice(first, stop)
             sub = state.set(image=image[rows], species=species[rows])
             forces, virial, refreshed, bits = jax.jit(interactions)(

@@ -78,7 +78,7 @@ def estimated_bytes(scene, box) -> dict:
     observables = set(output.observables)
     # Positions, velocities, forces (3 floats each), image counters and species.
     sizes = {"particles.count": n * (9 * f + 16)}
-    if scene.pair is not None or scene.solvent.method in ("dpd", "lowe_andersen"):
+    if scene.pair is not None or scene.solvent_component.uses_neighbor_list:
         sizes["neighbors.capacity_multiplier"] = 8 * pair_capacity(scene, box_volume)
         if scene.neighbors.method == "cell_list":
             # The cell grid: at least three int32 member slots per cell.
@@ -98,14 +98,7 @@ def estimated_bytes(scene, box) -> dict:
         chain_species = {polymer.species for polymer in scene.polymers}
         beads = sum(s.count for s in scene.particles.species if s.name in chain_species)
         sizes["output.correlator_levels"] = 2 * 16 * output.correlator_levels * beads * 3 * f
-    solvent = scene.solvent
-    if solvent.method == "mpcd":
-        # Divided edge by edge: a tiny size overflows to inf (refused), never to 0/0.
-        side = solvent.cell_size
-        sizes["solvent.cell_size"] = 4 * f * box_volume / side / side / side
-    if solvent.method == "lattice_boltzmann":
-        side = solvent.grid_spacing
-        sizes["solvent.grid_spacing"] = 2 * 19 * f * box_volume / side / side / side
+    sizes.update(scene.solvent_component.memory(scene, box_volume, f))
     return sizes
 
 

@@ -392,7 +392,7 @@ def _reference_temperature(scene, averages: dict) -> float | None:
     """k_BT of the ideal-chain references: the solvent's set temperature, or for a
     Hoogerbrugge–Koelman fluid, which sets none (its solvent.kT is only the starting
     value), the measured mean kinetic temperature (None when it was not measured)."""
-    if scene.solvent.method != "hoogerbrugge_koelman":
+    if scene.solvent_component.sets_temperature:
         return scene.solvent.kT
     measured = averages.get("temperature")
     return None if measured is None else measured[0]

@@ -15,9 +15,24 @@ and the integrator turns their sum into the impulse δt Σ F.  The collision imp
 Ω_ij itself does not depend on δt: δt changes the model, not its accuracy.
 """
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import jax.numpy as jnp
 
 from jaxdpd.engine import noise
+from jaxdpd.engine.integrators import collide_and_stream
+from jaxdpd.solvents import component
+from jaxdpd.validation import read_number
+
+# Default initial_kT of a Hoogerbrugge–Koelman scene: the kinetic temperature its
+# default fluid reaches by itself (Π0 = 1/3, ω = 4/3, Δ = 1/3, n = 3, δt = 1:
+# 0.00161 ± 0.000002, benchmarks/accuracy_cost.py, README accuracy table).  Starting
+# there instead of at 1 matters for chains: a Hookean spring placed for k_BT = 1
+# (√(3/K) ≈ 22 r_c at K = 0.006) or kicked by beads 600 times too hot tears far
+# past the box before the fluid's friction (≈ ω Σ_j W_ij ≈ 4/3 per collision) cools
+# it.  Other parameter sets reach other temperatures: measure it and set initial_kT.
+HOOGERBRUGGE_KOELMAN_KT = 0.0016
 
 
 def collision_weight(weight, density, cutoff):
@@ -54,3 +69,94 @@ def hoogerbrugge_koelman_term(density, cutoff, pi0, omega, delta_pi_half_width, 
         return {"collision": collision_magnitude(w, momentum, delta_pi, pi0_, omega_) / dt_}
 
     return term
+
+
+@dataclass(frozen=True)
+class HoogerbruggeKoelmanParameters(component.SolventParameters):
+    """solvent.method = "hoogerbrugge_koelman".
+
+    `kT` is the scene's initial_kT: the model sets no temperature (its own follows
+    from pi0, omega, delta_pi and n), so this is the temperature the velocities start
+    at, the Hookean bond length chains are placed with and the scale of the runaway
+    check.  `weight_density` is the n of W(r), None for the box's N/V.
+    """
+
+    method: ClassVar[str] = "hoogerbrugge_koelman"
+    kT: float = HOOGERBRUGGE_KOELMAN_KT
+    pi0: float = 1.0 / 3.0
+    omega: float = 4.0 / 3.0
+    delta_pi: float = 1.0 / 3.0
+    weight_density: float | None = None
+
+
+class HoogerbruggeKoelman(component.SolventMethod):
+    """The original DPD update (module docstring): pi0, omega, delta_pi (half-width),
+    weight_density n > 0 (default N/V), initial_kT > 0; a collision and free flight
+    of unit masses in a box at rest, with its own conservative part (no [pair])."""
+
+    name = "hoogerbrugge_koelman"
+    fields = ("pi0", "omega", "delta_pi", "weight_density", "initial_kT")
+    pair_forces = False
+    sets_temperature = False
+    uses_neighbor_list = True
+    initial_forces = False  # collide_and_stream computes the forces at each step
+
+    def read(self, section) -> HoogerbruggeKoelmanParameters:
+        if "kT" in section:
+            raise ValueError(
+                f"solvent: ['kT'] belongs to the methods that set a temperature, not "
+                f"{self.name!r}, whose temperature follows from pi0, omega, delta_pi and the "
+                "density; give solvent.initial_kT for the starting velocities and chain "
+                "placement"
+            )
+        positive = {"minimum": 0, "exclusive_minimum": True}
+        return HoogerbruggeKoelmanParameters(
+            kT=read_number(section, "initial_kT", "solvent", HOOGERBRUGGE_KOELMAN_KT, **positive),
+            pi0=read_number(section, "pi0", "solvent", 1.0 / 3.0),
+            omega=read_number(section, "omega", "solvent", 4.0 / 3.0, minimum=0),
+            delta_pi=read_number(section, "delta_pi", "solvent", 1.0 / 3.0, minimum=0),
+            weight_density=read_number(section, "weight_density", "solvent", None, **positive),
+        )
+
+    def to_dict(self, parameters) -> dict:
+        data = {
+            "method": self.name,
+            "pi0": parameters.pi0,
+            "omega": parameters.omega,
+            "delta_pi": parameters.delta_pi,
+            "initial_kT": parameters.kT,
+        }
+        if parameters.weight_density is not None:
+            data["weight_density"] = parameters.weight_density
+        return data
+
+    def default_dt(self, parameters) -> float:
+        return 1.0
+
+    def check(self, scene) -> None:
+        if any(s.mass != 1.0 for s in scene.particles.species):
+            raise ValueError(
+                "particles.species[].mass: the Hoogerbrugge–Koelman update is written for "
+                "unit masses; remove the masses or use solvent.method = 'dpd'"
+            )
+
+    def pair_terms(self, scene, dtype) -> list:
+        solvent = scene.solvent
+        return [
+            hoogerbrugge_koelman_term(
+                solvent.weight_density or scene.particles.density,
+                scene.cutoff,
+                solvent.pi0,
+                solvent.omega,
+                solvent.delta_pi,
+                1.0,
+                scene.integrator.dt,
+                dtype,
+            )
+        ]
+
+    def advance(self, context):
+        scene = context.scene
+        return collide_and_stream(
+            context.box, scene.integrator.dt, context.interactions, scene.solvent.kT, context.dtype
+        )

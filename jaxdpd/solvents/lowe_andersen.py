@@ -49,14 +49,19 @@ priority and the Gaussian ξ are separate streams of the pair hash, so a traject
 does not depend on the neighbour-list format, capacity or order.
 """
 
-from typing import NamedTuple
+from dataclasses import dataclass
+from typing import ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
 from jax_md import dataclasses as jmd_dataclasses
 
 from jaxdpd.engine import noise
+from jaxdpd.engine.integrators import thermalized_velocity_verlet
 from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.solvents import component
+from jaxdpd.solvents.groot_warren import velocity_verlet
+from jaxdpd.validation import read_number
 
 # Streams of jaxdpd.engine.noise.pair_bits; the Gaussian ξ uses streams 0 and 1
 # (jaxdpd.engine.noise.pair_gaussian).
@@ -357,3 +362,137 @@ def lowe_andersen_thermostat(
         return velocities, LoweAndersenRecord(impulse_moment * inverse_dt, pair_count, rounds)
 
     return thermalize
+
+
+@dataclass(frozen=True)
+class LoweAndersenParameters(component.SolventParameters):
+    """solvent.method = "lowe_andersen": k_BT, the bath collision frequency Γ and the
+    thermalisation cut-off r_T (None for the scene's cutoff)."""
+
+    method: ClassVar[str] = "lowe_andersen"
+    collision_frequency: float = 0.0
+    thermalization_cutoff: float | None = None
+
+
+class LoweAndersen(component.SolventMethod):
+    """The Lowe–Andersen thermostat (module docstring) in velocity Verlet: kT > 0,
+    collision_frequency Γ ≥ 0 (0 = thermostat off; Γ · integrator.dt ≤ 1),
+    thermalization_cutoff r_T > 0 (default: cutoff).  No integrator.lambda: the step
+    has no velocity-dependent force to predict."""
+
+    name = "lowe_andersen"
+    fields = ("collision_frequency", "thermalization_cutoff")
+    flows = ("shear", "planar_elongation")
+    integrator_lambda = False
+    uses_neighbor_list = True
+    heating_advice = (
+        "lower the flow rate (the heating at rates near 1 and above hardly depends on "
+        "Δt) or reduce integrator.dt; collision_frequency · dt must stay ≤ 1"
+    )
+
+    def read(self, section) -> LoweAndersenParameters:
+        """The Lowe–Andersen thermostat's parameters (thesis §2.3.2)."""
+        misplaced = sorted({"gamma", "sigma", "noise", "pi0", "omega", "delta_pi"} & set(section))
+        if misplaced:
+            raise ValueError(
+                f"solvent: {misplaced} are not parameters of method 'lowe_andersen' (it has "
+                f"kT and {list(self.fields)}; the pair collisions replace the "
+                "dissipative and random forces)"
+            )
+        if "collision_frequency" not in section:
+            raise ValueError(
+                "solvent.collision_frequency: required field is missing (the bath collision "
+                "frequency Γ of method 'lowe_andersen', ≥ 0, with Γ · integrator.dt ≤ 1)"
+            )
+        return LoweAndersenParameters(
+            kT=read_number(section, "kT", "solvent", 1.0, minimum=0, exclusive_minimum=True),
+            collision_frequency=read_number(section, "collision_frequency", "solvent", minimum=0),
+            thermalization_cutoff=read_number(
+                section, "thermalization_cutoff", "solvent", None, minimum=0, exclusive_minimum=True
+            ),
+        )
+
+    def to_dict(self, parameters) -> dict:
+        data = {
+            "method": "lowe_andersen",
+            "kT": parameters.kT,
+            "collision_frequency": parameters.collision_frequency,
+        }
+        if parameters.thermalization_cutoff is not None:
+            data["thermalization_cutoff"] = parameters.thermalization_cutoff
+        return data
+
+    def check_integrator(self, parameters, section, integrator) -> None:
+        if "lambda" in section:
+            raise ValueError(
+                "integrator.lambda: the Lowe–Andersen step has no velocity-dependent force, "
+                "so the λ of Groot and Warren's modified velocity Verlet plays no role; "
+                "remove it"
+            )
+
+    def pair_range(self, parameters, cutoff: float) -> tuple[str, float]:
+        """r_c, or a longer r_T."""
+        reach = parameters.thermalization_cutoff
+        if reach is not None and reach > cutoff:
+            return "solvent.thermalization_cutoff", reach
+        return "cutoff", cutoff
+
+    def check(self, scene) -> None:
+        """Γ Δt is the probability that a pair is thermalised in a step: at most 1."""
+        frequency, dt = scene.solvent.collision_frequency, scene.integrator.dt
+        if frequency * dt > 1 + 1e-12:
+            raise ValueError(
+                f"solvent.collision_frequency × integrator.dt = {frequency:g} × {dt:g} = "
+                f"{frequency * dt:.4g} > 1: Γ Δt is the probability that a pair is "
+                f"thermalised in a step (thesis §2.3.2); use collision_frequency ≤ 1/dt = "
+                f"{1 / dt:.6g} or integrator.dt ≤ 1/collision_frequency = {1 / frequency:.6g}"
+            )
+
+    def bath_cutoff(self, scene) -> float | None:
+        """r_T of an active thermostat (default r_c), else None."""
+        solvent = scene.solvent
+        if solvent.collision_frequency == 0:
+            return None
+        if solvent.thermalization_cutoff is None:
+            return scene.cutoff
+        return solvent.thermalization_cutoff
+
+    def advance(self, context):
+        scene = context.scene
+        bath_cutoff = self.bath_cutoff(scene)
+        if bath_cutoff is None:
+            return velocity_verlet(context)
+        box, dt = context.box, scene.integrator.dt
+        lowe_andersen = lowe_andersen_thermostat(
+            scene.n_particles,
+            min(1.0, scene.solvent.collision_frequency * dt),
+            scene.solvent.kT,
+            bath_cutoff,
+            dt,
+            context.dtype,
+            context.search.half,
+            context.masses,
+            context.with_virial,
+        )
+
+        def thermalize(state, velocities):
+            """Thermalise at the state's positions and box; noise keyed by its step."""
+            key = noise.step_key(state.seed, state.step)
+            bound_box = box.bind(state.box_state)
+            return lowe_andersen(bound_box, state.positions, velocities, state.pair_list, key)
+
+        return thermalized_velocity_verlet(
+            box,
+            dt,
+            context.interactions,
+            thermalize,
+            scene.solvent.kT,
+            context.dtype,
+            context.masses,
+            context.with_virial,
+        )
+
+    def initial_solvent_state(self, scene, dtype):
+        if self.bath_cutoff(scene) is None:
+            return None
+        return empty_record(dtype)

@@ -20,8 +20,6 @@ from jaxdpd.solvents.lattice_boltzmann.fluid import FluidParameters
 
 def fluid_parameters(scene) -> FluidParameters:
     """The fluid of a scene with solvent.method = "lattice_boltzmann"."""
-    from jaxdpd.scene import lattice_nodes
-
     solvent = scene.solvent
     return FluidParameters(
         nodes=lattice_nodes(scene.box.lengths, solvent.grid_spacing),
@@ -34,9 +32,14 @@ def fluid_parameters(scene) -> FluidParameters:
     )
 
 
+def lattice_nodes(lengths, grid_spacing: float) -> tuple[int, int, int]:
+    """Nodes per box edge, n_α = L_α/a (whole numbers, checked by the scene)."""
+    return tuple(round(length / grid_spacing) for length in lengths)
+
+
 def md_steps_per_lattice_step(scene) -> int:
     """n = τ/Δt (a whole number, checked by the scene)."""
     return round(scene.solvent.time_step / scene.integrator.dt)
 
 
-__all__ = ["FluidParameters", "fluid_parameters", "md_steps_per_lattice_step"]
+__all__ = ["FluidParameters", "fluid_parameters", "lattice_nodes", "md_steps_per_lattice_step"]
