@@ -218,7 +218,7 @@ def force_kernel(
         spring_pairs, geometry = spring_search.refresh(
             positions, state.spring_pairs, state.box_state
         )
-        bits = jnp.where(spring_pairs.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        bits = jnp.where(spring_pairs.overflow, errors.StepError.NEIGHBOR_OVERFLOW, 0)
         if repulsion is not None:
             magnitude = pair_magnitudes(geometry, repulsion)
             vectors = vectors + segment_forces(geometry, magnitude, positions.shape[0])
@@ -271,8 +271,8 @@ def force_kernel(
                 virial["bond"] = virial.get("bond", 0) + bonded.virial
             bits = (
                 bits
-                | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
-                | jnp.where(bonded.past_half_box, errors.SPRING_PAST_HALF_BOX, 0)
+                | jnp.where(bonded.overstretched, errors.StepError.SPRING_OVERSTRETCHED, 0)
+                | jnp.where(bonded.past_half_box, errors.StepError.SPRING_PAST_HALF_BOX, 0)
             )
         if spring_search is not None:
             vectors, virial, spring_pairs, spring_bits = spring_interactions(
