@@ -32,6 +32,7 @@ from jaxdpd.engine.integrators import (
     thermalized_velocity_verlet,
 )
 from jaxdpd.engine.parameters import scene_parameters
+from jaxdpd.engine.precision import enable_float64
 from jaxdpd.engine.state import SimState
 from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
 from jaxdpd.forces.bonds import chain_bond_forces
@@ -324,6 +325,7 @@ def build(scene: Scene) -> Simulation:
 
     Cached per scene, so building an equal scene again reuses the compiled chunks.
     """
+    enable_float64()  # any scene: uint64 cell words, int64 keys (jaxdpd.engine.precision)
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
     check_resources(scene, box)
