@@ -206,6 +206,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
+    jaxdpd.enable_float64()  # the float64 connectors are made here
     if args.quick:
         sizes, budget, lengths, n_grad = [1000, 10000], 2e6, [100, 400], 256
     else:

@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from _common import print_table, timed, write_json
 
+import jaxdpd
 from jaxdpd.engine.build import build
 from jaxdpd.run import driver
 from jaxdpd.scene import Scene
@@ -114,6 +115,7 @@ def main():
     parser.add_argument("--precisions", nargs="+", default=["float32", "float64"])
     parser.add_argument("--chain-steps", type=int, default=5000)
     args = parser.parse_args()
+    jaxdpd.enable_float64()  # float64 lattices are made here, before any build
     rows = [
         lattice_rate(n, precision, noise, args.steps)
         for n in args.sizes

@@ -15,7 +15,6 @@ import jax
 import jax.numpy as jnp
 from _common import print_table, write_json
 
-import jaxdpd  # noqa: F401  (x64 available)
 from jaxdpd.geometry.boxes import PeriodicBox
 from jaxdpd.geometry.neighbors import neighbor_search
 

@@ -2,12 +2,13 @@
 
 Units are reduced DPD units (r_c = m = k_BT = 1) unless a scene says otherwise.
 
-64-bit types are enabled on import so that a scene may ask for float64; every array
-jaxdpd creates carries an explicit dtype, so float32 scenes stay float32.
+Importing jaxdpd leaves JAX's configuration alone.  Building a scene switches on
+JAX's 64-bit types, which the engine needs (see jaxdpd.engine.precision); call
+`enable_float64()` first to make float64 JAX arrays of your own.
 """
 
-import jax
+from jaxdpd.engine.precision import enable_float64
 
-jax.config.update("jax_enable_x64", True)
+__all__ = ["enable_float64"]
 
 __version__ = "0.1.0"

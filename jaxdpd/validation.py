@@ -1,22 +1,31 @@
 """Checks that turn bad scene input into errors naming the field and what is valid.
 
 Each reader takes the section dictionary, the key and the dotted path of the
-section, and raises `TypeError` for a wrong type and `SceneError` (a `ValueError`)
-for a value out of range, before anything is traced.
+section, and raises, before anything is traced, a `SceneError` (a `ValueError`) for
+a value out of range or a missing or unknown key, and a `SceneTypeError` (both a
+`SceneError` and a `TypeError`) for a value of the wrong type.
 """
 
 import math
 
+_MISSING = object()
+
 
 class SceneError(ValueError):
     """Bad scene input: `field` is the dotted path of the offending field
-    ("solvent.kT", "polymers[0].bond.law"); the message starts with it."""
+    ("solvent.kT", "polymers[0].bond.law"); the message starts with it, followed by
+    the offending value when one is given ("solvent.kT = -1.0: must be > 0")."""
 
-    def __init__(self, field: str, message: str):
+    def __init__(self, field: str, message: str, value=_MISSING):
         self.field = field
-        super().__init__(f"{field}: {message}" if message else field)
+        subject = field if value is _MISSING else f"{field} = {value!r}"
+        super().__init__(f"{subject}: {message}" if message else subject)
 
-_MISSING = object()
+
+class SceneTypeError(SceneError, TypeError):
+    """A scene field holds a value of the wrong type (a table where a number belongs)."""
+
+
 INT32_MAX = 2**31 - 1
 # Pass as `default` to make a field required (the readers' default).
 REQUIRED = _MISSING
@@ -25,13 +34,13 @@ REQUIRED = _MISSING
 def check_keys(section: dict, allowed, path: str) -> None:
     """Refuse keys that the section does not know."""
     if not isinstance(section, dict):
-        raise TypeError(f"{path}: expected a table (dict), got {type(section).__name__}")
+        raise SceneTypeError(path, f"expected a table (dict), got {type(section).__name__}")
     for key in section:
         if not isinstance(key, str):
-            raise TypeError(f"{path}: keys must be strings, got {key!r}")
+            raise SceneTypeError(path, f"keys must be strings, got {key!r}")
     unknown = sorted(set(section) - set(allowed))
     if unknown:
-        raise ValueError(f"{path}: unknown key(s) {unknown}; valid keys: {sorted(allowed)}")
+        raise SceneError(path, f"unknown key(s) {unknown}; valid keys: {sorted(allowed)}")
 
 
 def _field(path: str, key: str) -> str:
@@ -43,7 +52,7 @@ def _present(section: dict, key: str, path: str, default, hint: str = "") -> boo
     if key in section:
         return True
     if default is _MISSING:
-        raise ValueError(f"{_field(path, key)}: required field is missing{hint}")
+        raise SceneError(_field(path, key), f"required field is missing{hint}")
     return False
 
 
@@ -69,22 +78,22 @@ def read_number(
     value = section[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         kind = "an integer" if integer else "a number"
-        raise TypeError(f"{name}: expected {kind}, got {type(value).__name__} {value!r}")
+        raise SceneTypeError(name, f"expected {kind}, got {type(value).__name__} {value!r}")
     if integer and not isinstance(value, int):
-        raise TypeError(f"{name}: expected an integer, got {value!r}")
+        raise SceneTypeError(name, f"expected an integer, got {value!r}")
     if isinstance(value, int) and not -(2**63) <= value < 2**63:
-        raise ValueError(f"{name}: must lie within the 64-bit integer range (as in TOML)")
+        raise SceneError(name, "must lie within the 64-bit integer range (as in TOML)")
     if not math.isfinite(value):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
+        raise SceneError(name, f"must be finite, got {value!r}")
     if minimum is not None:
         if exclusive_minimum and not value > minimum:
-            raise ValueError(f"{name} = {value!r}: must be > {minimum}")
+            raise SceneError(name, f"must be > {minimum}", value)
         if not exclusive_minimum and not value >= minimum:
-            raise ValueError(f"{name} = {value!r}: must be ≥ {minimum}")
+            raise SceneError(name, f"must be ≥ {minimum}", value)
     if integer and maximum is None:
         maximum = INT32_MAX
     if maximum is not None and not value <= maximum:
-        raise ValueError(f"{name} = {value!r}: must be ≤ {maximum}")
+        raise SceneError(name, f"must be ≤ {maximum}", value)
     return int(value) if integer else float(value)
 
 
@@ -95,9 +104,9 @@ def read_choice(section: dict, key: str, path: str, choices, default=_MISSING):
         return default
     value = section[key]
     if not isinstance(value, str):
-        raise TypeError(f"{name}: expected a string, got {type(value).__name__} {value!r}")
+        raise SceneTypeError(name, f"expected a string, got {type(value).__name__} {value!r}")
     if value not in choices:
-        raise ValueError(f"{name} = {value!r}: valid values are {list(choices)}")
+        raise SceneError(name, f"valid values are {list(choices)}", value)
     return value
 
 
@@ -108,7 +117,7 @@ def read_string(section: dict, key: str, path: str, default=_MISSING):
         return default
     value = section[key]
     if not isinstance(value, str) or not value:
-        raise TypeError(f"{name}: expected a non-empty string, got {value!r}")
+        raise SceneTypeError(name, f"expected a non-empty string, got {value!r}")
     return value
 
 
@@ -119,5 +128,5 @@ def read_list(section: dict, key: str, path: str, default=_MISSING):
         return default
     value = section[key]
     if not isinstance(value, (list, tuple)):
-        raise TypeError(f"{name}: expected a list, got {type(value).__name__} {value!r}")
+        raise SceneTypeError(name, f"expected a list, got {type(value).__name__} {value!r}")
     return list(value)

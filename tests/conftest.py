@@ -4,8 +4,12 @@ import copy
 
 import pytest
 
-import jaxdpd  # noqa: F401  (enables x64 before any array is created)
+import jaxdpd
 from jaxdpd.scene import Scene
+
+# The tests call engine internals (boxes, neighbour lists, forces) on float64 arrays
+# of their own, before or without a build: switch 64-bit types on for the session.
+jaxdpd.enable_float64()
 
 BASE_SCENE = {
     "seed": 7,

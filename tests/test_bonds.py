@@ -9,7 +9,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.forces import bonds
 from jaxdpd.geometry.boxes import PeriodicBox, make_box
 from jaxdpd.geometry.chain_topology import ChainBlock, chain_coordinates

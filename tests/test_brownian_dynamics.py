@@ -9,7 +9,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import jaxdpd  # noqa: F401
 from jaxdpd.brownian import (
     FENE,
     Hookean,

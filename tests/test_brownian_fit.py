@@ -15,7 +15,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import jaxdpd  # noqa: F401
 from jaxdpd.brownian import (
     FENE,
     fit_spring,

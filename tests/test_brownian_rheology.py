@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_lyapunov
 
-import jaxdpd  # noqa: F401
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.brownian import (
     FENE,

@@ -5,7 +5,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import jaxdpd  # noqa: F401  (enables x64)
 from jaxdpd.analysis.statistics import block_average, blocking_analysis
 
 

@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 from dumbbell_scenes import dumbbell_solution, sheared_solution_with_tracers
 
-import jaxdpd  # noqa: F401  (float64)
 from jaxdpd import brownian as bd
 from jaxdpd.engine.build import build
 from jaxdpd.engine.parameters import with_parameters

@@ -22,7 +22,6 @@ import pytest
 from conftest import make_scene
 from dumbbell_scenes import dumbbell_solution
 
-import jaxdpd  # noqa: F401  (float64)
 from jaxdpd.analysis.dynamics import diffusion_coefficient, time_msd
 from jaxdpd.engine.build import build
 from jaxdpd.forces.body_forces import tagged_body_force

@@ -105,7 +105,7 @@ def test_runaway_is_measured_against_initial_kT():
     simulation = build(cold)
     with pytest.raises(SimulationError, match="initial_kT") as raised:
         driver.run(simulation, simulation.init_fn(), 50, 50)
-    assert errors.describe(errors.TEMPERATURE_RUNAWAY) in str(raised.value)
+    assert errors.StepError.TEMPERATURE_RUNAWAY.message in str(raised.value)
     default = build(hk_scene(4.0, 192, 40, 2, WEAK))
     assert int(driver.run(default, default.init_fn(), 50, 50).flags) == 0
 

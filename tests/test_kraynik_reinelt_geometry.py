@@ -18,7 +18,6 @@ import pytest
 # The cell list's pairs within the cut-off, as the Lees–Edwards tests collect them.
 from test_lees_edwards_geometry import CUTOFF, listed_pairs
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.geometry.boxes import KraynikReineltBox
 from jaxdpd.geometry.boxes.kraynik_reinelt_lattice import kraynik_reinelt_case, stretch
 from jaxdpd.geometry.neighbors.cell_list import cell_list_search

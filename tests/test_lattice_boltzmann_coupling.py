@@ -222,8 +222,8 @@ def test_bead_velocities_have_variance_kT_over_M(free_beads):
 
 
 def test_fluid_invalid_state_stops_the_run(free_beads):
-    """A fluid whose density went negative is flagged (errors.FLUID_INVALID) and the
-    driver stops with the message instead of running on into NaNs."""
+    """A fluid whose density went negative is flagged (errors.StepError.FLUID_INVALID)
+    and the driver stops with the message instead of running on into NaNs."""
     simulation, state = free_beads
     fluid = fluid_parameters(simulation.scene)
     rest = fluid.density * WEIGHTS.reshape(-1, 1, 1, 1)

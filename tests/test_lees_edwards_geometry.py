@@ -11,7 +11,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.forces.pair_sums import pair_geometry
 from jaxdpd.geometry.boxes import LeesEdwardsBox
 from jaxdpd.geometry.neighbors.cell_list import cell_list_search

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.engine import noise
 from jaxdpd.geometry.boxes import PeriodicBox
 from jaxdpd.solvents.mpcd import transport

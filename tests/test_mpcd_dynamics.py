@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from mpcd_scenes import polymer_solution
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.analysis.dynamics import time_autocorrelation
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine import errors

@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 from mpcd_scenes import polymer_solution
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.analysis.dynamics import center_of_mass_msd, center_of_mass_vacf
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine.build import build

@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 from mpcd_scenes import polymer_solution, pure_solvent
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine.build import build
 from jaxdpd.engine.integrators import free_flight_stress

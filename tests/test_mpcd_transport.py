@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 from mpcd_scenes import pure_solvent
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine import noise
 from jaxdpd.engine.build import build

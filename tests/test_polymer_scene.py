@@ -152,5 +152,15 @@ def test_overstretched_fene_spring_stops_the_run_with_a_message(tmp_path):
 
 
 def test_error_messages_name_every_flag():
-    for bit in (errors.SPRING_OVERSTRETCHED, errors.SPRING_PAST_HALF_BOX):
-        assert errors.describe(bit) != "no error"
+    for bit in errors.StepError:
+        assert errors.describe(bit) == bit.message != ""
+    assert errors.describe(0) == "no error"
+
+
+def test_error_flags_are_described_cause_first():
+    """An int32 read from the state names each set bit, the spring failure before
+    the non-finite values it led to; bits no member names are ignored."""
+    flags = np.int32(errors.StepError.NON_FINITE | errors.StepError.SPRING_OVERSTRETCHED | 64)
+    assert errors.describe(flags) == "; ".join(
+        (errors.StepError.SPRING_OVERSTRETCHED.message, errors.StepError.NON_FINITE.message)
+    )

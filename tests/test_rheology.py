@@ -22,7 +22,6 @@ import numpy as np
 import pytest
 from dumbbell_scenes import sheared_solution_with_tracers
 
-import jaxdpd  # noqa: F401  (float64)
 from jaxdpd import brownian as bd
 from jaxdpd.analysis import rheology
 from jaxdpd.analysis.running_averages import RunningBlockAverages

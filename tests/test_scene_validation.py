@@ -4,6 +4,7 @@ import pytest
 from conftest import scene_dict
 
 from jaxdpd.scene import Scene
+from jaxdpd.validation import SceneError, SceneTypeError
 
 
 class Replace(dict):
@@ -148,3 +149,27 @@ def test_resolved_scene_round_trips_through_to_dict():
     assert Scene.from_dict(scene.to_dict()) == scene
     assert scene.n_particles == 600
     assert scene.box.lengths[0] == pytest.approx((600 / 3.0) ** (1 / 3))
+
+
+@pytest.mark.parametrize(
+    ("sections", "error", "field"),
+    [
+        ({"integrator": {"dt": -0.01}}, SceneError, "integrator.dt"),
+        (
+            {"particles": {"species": [{"name": "A", "mass": 0.0}]}},
+            SceneError,
+            "particles.species[0].mass",
+        ),
+        ({"solvent": {"method": "dpd", "temperature": 1.0}}, SceneError, "solvent"),
+        ({"particles": {"density": "3", "count": 600}}, SceneTypeError, "particles.density"),
+    ],
+)
+def test_a_bad_field_raises_scene_error_carrying_its_dotted_path(sections, error, field):
+    """The error is a SceneError (a ValueError; for a wrong type also a TypeError)
+    whose `field` is the dotted path that its message starts with."""
+    with pytest.raises(error) as raised:
+        Scene.from_dict(scene_dict(**sections))
+    assert raised.value.field == field
+    assert str(raised.value).startswith(field)
+    assert isinstance(raised.value, ValueError)
+    assert isinstance(raised.value, TypeError) == (error is SceneTypeError)

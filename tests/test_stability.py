@@ -179,7 +179,7 @@ def test_fene_dumbbells_with_a_time_step_too_large_stop_with_a_named_error():
     simulation = build(scene)
     with pytest.raises(errors.SimulationError, match=r"integrator\.dt") as raised:
         driver.run(simulation, simulation.init_fn(), 2000, 100)
-    named = (errors.MESSAGES[errors.SPRING_OVERSTRETCHED], errors.MESSAGES[errors.NON_FINITE])
+    named = (errors.StepError.SPRING_OVERSTRETCHED.message, errors.StepError.NON_FINITE.message)
     assert any(message in str(raised.value) for message in named)
 
 

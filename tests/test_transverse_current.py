@@ -8,7 +8,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import jaxdpd  # noqa: F401  (enables float64)
 from jaxdpd.engine.trigonometry import sincos_turns
 from jaxdpd.observables.transverse_current import (
     TRANSVERSE_PAIRS,

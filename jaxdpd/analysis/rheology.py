@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.analysis.statistics import block_average
+from jaxdpd.engine.precision import as_array
 from jaxdpd.observables.drag import giesekus_drag, tagged_drag
 
 MATERIAL_FUNCTIONS = ("viscosity", "psi1", "psi2")
@@ -39,7 +40,7 @@ def material_function_series(pressure_tensor, shear_rate) -> dict:
     Returns:
         {"viscosity", "psi1", "psi2"} → (..., T) series (NaN where γ̇ = 0).
     """
-    pressure = jnp.asarray(pressure_tensor)
+    pressure = as_array(pressure_tensor)
     if pressure.ndim < 3 or pressure.shape[-2:] != (3, 3):
         raise ValueError(f"pressure_tensor must be (..., T, 3, 3), got {pressure.shape}")
     rate = jnp.asarray(shear_rate, pressure.dtype)[..., None]
@@ -105,7 +106,7 @@ def conformation_components(conformation, n_blocks: int = 20) -> dict:
         {"xy": ⟨Q_x Q_y⟩, "xx-yy": ⟨Q_x²⟩ − ⟨Q_y²⟩, "yy-zz": ⟨Q_y²⟩ − ⟨Q_z²⟩} →
         (mean, standard error); all vanish at rest (isotropy).
     """
-    tensor = jnp.asarray(conformation)
+    tensor = as_array(conformation)
     components = {
         "xy": 0.5 * (tensor[..., 0, 1] + tensor[..., 1, 0]),
         "xx-yy": tensor[..., 0, 0] - tensor[..., 1, 1],

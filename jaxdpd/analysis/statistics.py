@@ -23,11 +23,13 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.engine.precision import as_array
+
 __all__ = ["block_average", "blocking_analysis", "inverse_variance_mean", "ratio_of_means"]
 
 
 def _check_series(series, axis: int, n_blocks: int | None = None):
-    x = jnp.asarray(series)
+    x = as_array(series)
     if not jnp.issubdtype(x.dtype, jnp.floating):
         raise ValueError(
             f"series must hold floating-point values, got dtype {x.dtype}; "
@@ -155,7 +157,7 @@ def inverse_variance_mean(means, errors, axis: int = 0):
     Robinson, *Data Reduction and Error Analysis for the Physical Sciences*, 3rd
     ed. (2003), ch. 4 (the weighted mean).
     """
-    means, errors = jnp.asarray(means), jnp.asarray(errors)
+    means, errors = as_array(means), as_array(errors)
     if means.shape != errors.shape:
         raise ValueError(f"means {means.shape} and errors {errors.shape} must have one shape")
     weights = 1 / errors**2

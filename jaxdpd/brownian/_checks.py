@@ -11,22 +11,22 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.engine.precision import enable_float64
+
 FLOAT_DTYPES = (jnp.float32, jnp.float64)
 
 
 def float_dtype(dtype, name: str = "dtype"):
-    """Return ``dtype`` as a NumPy dtype, refusing anything but float32/float64."""
+    """Return ``dtype`` as a NumPy dtype, refusing anything but float32/float64; a
+    float64 request switches on JAX's 64-bit types (jaxdpd.engine.precision)."""
     try:
         dt = np.dtype(dtype)
     except TypeError as err:
         raise ValueError(f"{name} must be float32 or float64, got {dtype!r}") from err
     if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
         raise ValueError(f"{name} must be float32 or float64, got {dt}")
-    if dt == np.dtype(np.float64) and not jax.config.jax_enable_x64:
-        raise ValueError(
-            f"{name}=float64 needs jax x64 mode; import jaxdpd (which enables it) "
-            "before creating arrays"
-        )
+    if dt == np.dtype(np.float64):
+        enable_float64()
     return dt
 
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from jaxdpd.engine import errors, noise
 from jaxdpd.engine.parameters import scene_parameters
+from jaxdpd.engine.precision import enable_float64
 from jaxdpd.engine.state import SimState
 from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
 from jaxdpd.forces.bonds import chain_bond_forces
@@ -191,7 +192,7 @@ def force_kernel(
         spring_pairs, geometry = spring_search.refresh(
             positions, state.spring_pairs, state.box_state
         )
-        bits = jnp.where(spring_pairs.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        bits = jnp.where(spring_pairs.overflow, errors.StepError.NEIGHBOR_OVERFLOW, 0)
         if repulsion is not None:
             magnitude = pair_magnitudes(geometry, repulsion)
             vectors = vectors + segment_forces(geometry, magnitude, positions.shape[0])
@@ -244,8 +245,8 @@ def force_kernel(
                 virial["bond"] = virial.get("bond", 0) + bonded.virial
             bits = (
                 bits
-                | jnp.where(bonded.overstretched, errors.SPRING_OVERSTRETCHED, 0)
-                | jnp.where(bonded.past_half_box, errors.SPRING_PAST_HALF_BOX, 0)
+                | jnp.where(bonded.overstretched, errors.StepError.SPRING_OVERSTRETCHED, 0)
+                | jnp.where(bonded.past_half_box, errors.StepError.SPRING_PAST_HALF_BOX, 0)
             )
         if spring_search is not None:
             vectors, virial, spring_pairs, spring_bits = spring_interactions(
@@ -277,6 +278,7 @@ def build(scene: Scene) -> Simulation:
 
     Cached per scene, so building an equal scene again reuses the compiled chunks.
     """
+    enable_float64()  # any scene: uint64 cell words, int64 keys (jaxdpd.engine.precision)
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
     check_resources(scene, box)

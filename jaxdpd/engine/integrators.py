@@ -29,9 +29,9 @@ def _flag(state, positions, velocities, pair_list, kT, bits, masses=None):
     finite = jnp.isfinite(jnp.sum(positions) + twice_kinetic)
     runaway = twice_kinetic > errors.RUNAWAY_FACTOR * 3 * kT * velocities.shape[0]
     bits = (
-        jnp.where(finite, 0, errors.NON_FINITE)
-        | jnp.where(runaway, errors.TEMPERATURE_RUNAWAY, 0)
-        | jnp.where(pair_list.overflow, errors.NEIGHBOR_OVERFLOW, 0)
+        jnp.where(finite, 0, errors.StepError.NON_FINITE)
+        | jnp.where(runaway, errors.StepError.TEMPERATURE_RUNAWAY, 0)
+        | jnp.where(pair_list.overflow, errors.StepError.NEIGHBOR_OVERFLOW, 0)
         | bits
     )
     return state.flags | bits.astype(jnp.int32)

@@ -121,7 +121,7 @@ def run_chunk(simulation, state, length: int):
         flags = int(new_state.flags)
         # Only a pure overflow is cured by larger buffers; with any other error the
         # configuration itself is broken and reallocating would only waste time.
-        if flags == errors.NEIGHBOR_OVERFLOW and attempt < MAX_REALLOCATIONS:
+        if flags == errors.StepError.NEIGHBOR_OVERFLOW and attempt < MAX_REALLOCATIONS:
             state = simulation.reallocate(state, simulation.buffer_needs(new_state))
             continue
         if flags:

@@ -142,8 +142,8 @@ def run_chunk(simulation, batch, length: int):
     for attempt in range(MAX_REALLOCATIONS + 1):
         new_batch, samples = _scan_batch(simulation.step_fn, batch, length)
         flags = np.asarray(new_batch.flags)
-        overflowed = (flags & errors.NEIGHBOR_OVERFLOW) != 0
-        broken = (flags & ~errors.NEIGHBOR_OVERFLOW) != 0
+        overflowed = (flags & errors.StepError.NEIGHBOR_OVERFLOW) != 0
+        broken = (flags & ~errors.StepError.NEIGHBOR_OVERFLOW) != 0
         if overflowed.any() and not broken.any() and attempt < MAX_REALLOCATIONS:
             minimum = simulation.buffer_needs(new_batch)
             resized = stack(_common_buffers(simulation, unstack(batch), minimum))

@@ -41,10 +41,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.engine.precision import enable_float64
 from jaxdpd.geometry.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
 
 LANE_BITS = 32  # candidate slots per distance-test lane (uint32)
-WORD_BITS = 64  # bits per packed row word (uint64; jaxdpd enables 64-bit types)
+WORD_BITS = 64  # bits per packed row word (uint64)
 
 
 def _running(op, values):
@@ -359,6 +360,7 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
     Returns:
         NeighborSearch with half = True.
     """
+    enable_float64()  # rows are packed into uint64 words
     list_cutoff = cutoff + skin
     n_cells = cell_grid(box, list_cutoff)
     n_cells_total = math.prod(n_cells)

@@ -135,7 +135,7 @@ def coupled_step(
         impulse = solvent.impulse if body_impulse is None else solvent.impulse + body_impulse
         deviations, density, velocity = update_fluid(solvent.deviations, impulse, key)
         healthy = jnp.all(density > 0) & jnp.all(jnp.isfinite(velocity))
-        bits = jnp.where(healthy, 0, errors.FLUID_INVALID).astype(jnp.int32)
+        bits = jnp.where(healthy, 0, errors.StepError.FLUID_INVALID).astype(jnp.int32)
         return FluidState(deviations, velocity, jnp.zeros_like(solvent.impulse)), bits
 
     def step(state):
