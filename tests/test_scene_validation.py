@@ -4,6 +4,8 @@ import pytest
 from conftest import scene_dict
 
 from jaxdpd.scene import Scene
+from jaxdpd.solvents import SOLVENTS
+from jaxdpd.validation import SceneError
 
 
 class Replace(dict):
@@ -148,3 +150,36 @@ def test_resolved_scene_round_trips_through_to_dict():
     assert Scene.from_dict(scene.to_dict()) == scene
     assert scene.n_particles == 600
     assert scene.box.lengths[0] == pytest.approx((600 / 3.0) ** (1 / 3))
+
+
+def test_unknown_solvent_method_is_the_registry_scene_error():
+    data = scene_dict()
+    data["solvent"] = {"method": "lowe_anderson"}
+    with pytest.raises(SceneError) as raised:
+        Scene.from_dict(data)
+    assert raised.value.field == "solvent.method"
+    assert "did you mean 'lowe_andersen'?" in str(raised.value)
+
+
+# The fields without defaults of the methods that have such.
+REQUIRED_SOLVENT_FIELDS = {
+    "lowe_andersen": {"collision_frequency": 1.0},
+    "lattice_boltzmann": {
+        "grid_spacing": 1.0,
+        "time_step": 0.1,
+        "mass_density": 1.0,
+        "kinematic_viscosity": 1.0,
+        "friction": 1.0,
+    },
+}
+
+
+@pytest.mark.parametrize("method", SOLVENTS.names())
+def test_a_flow_the_solvent_method_lacks_is_refused_naming_both_fields(method):
+    component = SOLVENTS.get(method)
+    for kind in sorted({"shear", "planar_elongation"} - set(component.flows)):
+        data = scene_dict(flow={"kind": kind})
+        data["solvent"] = {"method": method, **REQUIRED_SOLVENT_FIELDS.get(method, {})}
+        with pytest.raises(ValueError) as raised:
+            Scene.from_dict(data)
+        assert f"flow.kind = {kind!r}: solvent.method = {method!r} supports" in str(raised.value)
