@@ -4,6 +4,7 @@ import pytest
 from conftest import scene_dict
 
 from jaxdpd.scene import Scene
+from jaxdpd.solvents import SOLVENTS
 from jaxdpd.validation import SceneError, SceneTypeError
 
 
@@ -173,3 +174,36 @@ def test_a_bad_field_raises_scene_error_carrying_its_dotted_path(sections, error
     assert str(raised.value).startswith(field)
     assert isinstance(raised.value, ValueError)
     assert isinstance(raised.value, TypeError) == (error is SceneTypeError)
+
+
+def test_unknown_solvent_method_is_the_registry_scene_error():
+    data = scene_dict()
+    data["solvent"] = {"method": "lowe_anderson"}
+    with pytest.raises(SceneError) as raised:
+        Scene.from_dict(data)
+    assert raised.value.field == "solvent.method"
+    assert "did you mean 'lowe_andersen'?" in str(raised.value)
+
+
+# The fields without defaults of the methods that have such.
+REQUIRED_SOLVENT_FIELDS = {
+    "lowe_andersen": {"collision_frequency": 1.0},
+    "lattice_boltzmann": {
+        "grid_spacing": 1.0,
+        "time_step": 0.1,
+        "mass_density": 1.0,
+        "kinematic_viscosity": 1.0,
+        "friction": 1.0,
+    },
+}
+
+
+@pytest.mark.parametrize("method", SOLVENTS.names())
+def test_a_flow_the_solvent_method_lacks_is_refused_naming_both_fields(method):
+    component = SOLVENTS.get(method)
+    for kind in sorted({"shear", "planar_elongation"} - set(component.flows)):
+        data = scene_dict(flow={"kind": kind})
+        data["solvent"] = {"method": method, **REQUIRED_SOLVENT_FIELDS.get(method, {})}
+        with pytest.raises(ValueError) as raised:
+            Scene.from_dict(data)
+        assert f"flow.kind = {kind!r}: solvent.method = {method!r} supports" in str(raised.value)
