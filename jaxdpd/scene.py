@@ -113,6 +113,7 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 from fractions import Fraction
 
+from jaxdpd.forces.bonds import read_bond
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
 from jaxdpd.geometry.boxes import make_box
 from jaxdpd.solvents.mpcd.cells import collision_grid
@@ -1219,20 +1220,6 @@ def _wca_cutoff(data: dict, pair: Pair) -> float:
     return wca_range
 
 
-BOND_PARAMETERS = {
-    "hookean": {"spring_constant": REQUIRED},
-    "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
-    "harmonic": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
-    "fene": {"spring_constant": REQUIRED, "max_extension": REQUIRED},
-    "fene_log_wca": {
-        "spring_constant": REQUIRED,
-        "max_extension": REQUIRED,
-        "wca_epsilon": 1.0,
-        "wca_sigma": 1.0,
-    },
-}
-
-
 def _polymer_entries(entries) -> list:
     if not isinstance(entries, list):
         raise TypeError(
@@ -1264,33 +1251,9 @@ def _read_polymers(entries: list, species) -> tuple[Polymer, ...]:
                 f"chains of {path}.beads = {beads}; give a count that is a positive multiple "
                 f"of {beads}"
             )
-        bond = _read_bond(entry.get("bond"), f"{path}.bond")
+        bond = read_bond(entry.get("bond"), f"{path}.bond")
         polymers.append(Polymer(name, beads, tuple(bond.items())))
     return tuple(polymers)
-
-
-def _read_bond(section, path: str) -> dict:
-    """The bond table."""
-    if section is None:
-        raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
-    check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
-    law = read_choice(section, "law", path, tuple(BOND_PARAMETERS))
-    defaults = BOND_PARAMETERS[law]
-    misplaced = sorted(set(section) - {"law", *defaults})
-    if misplaced:
-        raise ValueError(f"{path}: {misplaced} are not parameters of law {law!r}")
-    bond = {"law": law}
-    for key, default in defaults.items():
-        strictly_positive = key != "rest_length" and key != "wca_epsilon"
-        bond[key] = read_number(
-            section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
-        )
-    if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
-        raise ValueError(
-            f"{path}: the WCA range 2^(1/6) wca_sigma = {2 ** (1 / 6) * bond['wca_sigma']:.4g} "
-            f"must be below max_extension = {bond['max_extension']}"
-        )
-    return bond
 
 
 def _read_integrator(section, solvent: Solvent) -> Integrator:

@@ -15,10 +15,14 @@ from jaxdpd.geometry.boxes import PeriodicBox, make_box
 from jaxdpd.geometry.chain_topology import ChainBlock, chain_coordinates
 
 LAWS = {
-    "hookean": bonds.hookean(2.0, kT=1.0),
-    "fraenkel": bonds.fraenkel(30.0, 0.8, kT=1.0),
-    "fene": bonds.fene(0.5, 5.0, kT=1.0),
-    "fene_log_wca": bonds.fene_log_wca(30.0, 1.5, 1.0, 1.0),
+    "hookean": bonds.bond_law({"law": "hookean", "spring_constant": 2.0}, kT=1.0),
+    "fraenkel": bonds.bond_law(
+        {"law": "fraenkel", "spring_constant": 30.0, "rest_length": 0.8}, kT=1.0
+    ),
+    "fene": bonds.bond_law({"law": "fene", "spring_constant": 0.5, "max_extension": 5.0}, kT=1.0),
+    "fene_log_wca": bonds.bond_law(
+        {"law": "fene_log_wca", "spring_constant": 30.0, "max_extension": 1.5}, kT=1.0
+    ),
 }
 BOX = PeriodicBox((12.0, 13.0, 14.0))
 
