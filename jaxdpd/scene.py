@@ -114,6 +114,7 @@ from dataclasses import asdict, dataclass, field
 from fractions import Fraction
 
 from jaxdpd.forces.bonds import read_bond
+from jaxdpd.forces.pair_laws import PAIR_LAWS, Pair, read_pair
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
 from jaxdpd.geometry.boxes import make_box
 from jaxdpd.solvents.mpcd.cells import collision_grid
@@ -138,7 +139,6 @@ LATTICE_BOLTZMANN_FIELDS = (
     "kinematic_bulk_viscosity",
     "friction",
 )
-PAIR_KINDS = ("soft_repulsion", "wca")
 # Largest thermal Mach number² k_BT/(ρ a³ c_s²) of a lattice-Boltzmann node: beyond it
 # the density fluctuations (its square root) make negative densities likely.
 MAX_THERMAL_MACH_NUMBER_SQ = 0.1
@@ -259,17 +259,6 @@ class Solvent:
     def rotation_angle_radians(self) -> float:
         """The MPCD rotation angle α in radians (the scene gives degrees)."""
         return math.radians(self.rotation_angle)
-
-
-@dataclass(frozen=True)
-class Pair:
-    """Conservative pair force: soft repulsion with species matrix a (S×S), or the
-    WCA repulsion with epsilon and sigma (the same for all pairs)."""
-
-    kind: str
-    a: tuple[tuple[float, ...], ...] = ()
-    epsilon: float = 1.0
-    sigma: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -477,8 +466,8 @@ class Scene:
         }
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
         pair = _read_pair(data.get("pair"), solvent, particles.species)
-        if pair is not None and pair.kind == "wca":
-            cutoff = _wca_cutoff(data, pair)
+        if pair is not None:
+            cutoff = PAIR_LAWS.get(pair.kind).cutoff(pair, cutoff, data.get("cutoff"))
         range_name, pair_range = _pair_range(cutoff, solvent)
         list_cutoff = pair_range + neighbors.skin
         heights = make_box(box_kind, lengths, flow).cell_heights
@@ -631,10 +620,8 @@ class Scene:
         data["solvent"] = _solvent_dict(self.solvent)
         if self.pair is None:
             del data["pair"]
-        elif self.pair.kind == "wca":
-            data["pair"] = {"kind": "wca", "epsilon": self.pair.epsilon, "sigma": self.pair.sigma}
         else:
-            data["pair"] = {"kind": self.pair.kind, "a": [list(row) for row in self.pair.a]}
+            data["pair"] = PAIR_LAWS.get(self.pair.kind).to_dict(self.pair)
         data["polymers"] = [
             {"species": p.species, "beads": p.beads, "bond": p.bond_parameters}
             for p in self.polymers
@@ -1149,75 +1136,7 @@ def _read_pair(section, solvent: Solvent, species) -> Pair | None:
             "pair: the Hoogerbrugge–Koelman update carries its own conservative part "
             "(solvent.pi0); remove the [pair] section"
         )
-    check_keys(section, ("kind", "a", "epsilon", "sigma"), "pair")
-    kind = read_choice(section, "kind", "pair", PAIR_KINDS, "soft_repulsion")
-    if kind == "wca":
-        if "a" in section:
-            raise ValueError("pair.a: belongs to kind 'soft_repulsion'; 'wca' takes epsilon, sigma")
-        positive = {"minimum": 0, "exclusive_minimum": True}
-        return Pair(
-            kind,
-            epsilon=read_number(section, "epsilon", "pair", **positive),
-            sigma=read_number(section, "sigma", "pair", **positive),
-        )
-    misplaced = sorted({"epsilon", "sigma"} & set(section))
-    if misplaced:
-        raise ValueError(f"pair: {misplaced} belong to kind 'wca', not 'soft_repulsion'")
-    names = [s.name for s in species]
-    n = len(names)
-    if "a" not in section:
-        raise ValueError("pair.a: required field is missing (number, S×S list or species table)")
-    a = section["a"]
-    if isinstance(a, (int, float)) and not isinstance(a, bool):
-        value = read_number(section, "a", "pair")
-        matrix = [[value] * n for _ in range(n)]
-    elif isinstance(a, dict):
-        matrix = [[None] * n for _ in range(n)]
-        for key in a:
-            if not isinstance(key, str):
-                raise TypeError(f"pair.a: key {key!r} must be a string 'A-B' of species names")
-            parts = key.split("-")
-            if len(parts) != 2:
-                raise ValueError(f"pair.a: key {key!r} must be 'A-B' with two species names")
-            for part in parts:
-                if part not in names:
-                    raise ValueError(f"pair.a: unknown species {part!r}; species are {names}")
-            p, q = names.index(parts[0]), names.index(parts[1])
-            number = read_number(a, key, "pair.a")
-            for x, y in ((p, q), (q, p)):
-                if matrix[x][y] is not None and matrix[x][y] != number:
-                    raise ValueError(f"pair.a: {key!r} given twice with different values")
-                matrix[x][y] = number
-        missing = [
-            f"{names[p]}-{names[q]}" for p in range(n) for q in range(p, n) if matrix[p][q] is None
-        ]
-        if missing:
-            raise ValueError(f"pair.a: missing entries {missing}")
-    elif isinstance(a, list):
-        if len(a) != n or any(not isinstance(row, list) or len(row) != n for row in a):
-            raise ValueError(f"pair.a: expected a {n}×{n} matrix (species {names}), got {a!r}")
-        matrix = [[read_number({"a": v}, "a", "pair") for v in row] for row in a]
-        for p in range(n):
-            for q in range(p + 1, n):
-                if matrix[p][q] != matrix[q][p]:
-                    raise ValueError(
-                        f"pair.a: must be symmetric; a[{p}][{q}] = {matrix[p][q]} but "
-                        f"a[{q}][{p}] = {matrix[q][p]}"
-                    )
-    else:
-        raise TypeError(f"pair.a: expected a number, list or table, got {type(a).__name__}")
-    return Pair(kind, tuple(tuple(row) for row in matrix))
-
-
-def _wca_cutoff(data: dict, pair: Pair) -> float:
-    """The cut-off of a WCA scene: 2^(1/6) σ; a given `cutoff` must equal it."""
-    wca_range = 2 ** (1 / 6) * pair.sigma
-    if "cutoff" in data and not math.isclose(data["cutoff"], wca_range, rel_tol=1e-9):
-        raise ValueError(
-            f"cutoff = {data['cutoff']!r}: with pair.kind = 'wca' the cut-off is the WCA "
-            f"range 2^(1/6) sigma = {wca_range:.6g}; remove cutoff"
-        )
-    return wca_range
+    return read_pair(section, species)
 
 
 def _polymer_entries(entries) -> list:

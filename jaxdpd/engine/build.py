@@ -35,7 +35,7 @@ from jaxdpd.engine.parameters import scene_parameters
 from jaxdpd.engine.state import SimState
 from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
 from jaxdpd.forces.bonds import chain_bond_forces
-from jaxdpd.forces.pair_laws import soft_repulsion_term, wca_term
+from jaxdpd.forces.pair_laws import PAIR_LAWS
 from jaxdpd.forces.pair_sums import pair_geometry, pair_sums
 from jaxdpd.forces.spring_repulsion import (
     pair_magnitudes,
@@ -132,10 +132,8 @@ def pair_terms(scene: Scene, dtype) -> list:
     """The pair laws the scene names, in the order they are summed."""
     terms = []
     solvent = scene.solvent
-    if scene.pair is not None and scene.pair.kind == "wca":
-        terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
-    elif scene.pair is not None:
-        terms.append(soft_repulsion_term(scene.pair.a, dtype))
+    if scene.pair is not None:
+        terms.append(PAIR_LAWS.get(scene.pair.kind).term(scene.pair, dtype))
     if solvent.method == "dpd" and solvent.gamma > 0:
         terms.append(
             groot_warren_term(solvent.gamma, solvent.kT, scene.integrator.dt, solvent.noise, dtype)
