@@ -95,6 +95,8 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 from fractions import Fraction
 
+from jaxdpd.forces.bonds import read_bond
+from jaxdpd.forces.pair_laws import PAIR_LAWS, Pair, read_pair
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
 from jaxdpd.geometry.boxes import BOXES, box_for_flow, make_box
 from jaxdpd.solvents import SOLVENTS, SolventMethod, SolventParameters
@@ -108,7 +110,6 @@ from jaxdpd.validation import (
     read_string,
 )
 
-PAIR_KINDS = ("soft_repulsion", "wca")
 PRECISIONS = ("float32", "float64")
 NEIGHBOR_METHODS = ("cell_list", "jax_md", "all_pairs")
 JAX_MD_FORMATS = ("dense", "sparse", "ordered_sparse")
@@ -179,17 +180,6 @@ class Flow:
     oscillation_frequency: float | None = None
     elongation_rate: float = 0.0
     kraynik_reinelt_case: int = 1
-
-
-@dataclass(frozen=True)
-class Pair:
-    """Conservative pair force: soft repulsion with species matrix a (S×S), or the
-    WCA repulsion with epsilon and sigma (the same for all pairs)."""
-
-    kind: str
-    a: tuple[tuple[float, ...], ...] = ()
-    epsilon: float = 1.0
-    sigma: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -402,9 +392,9 @@ class Scene:
         particles, lengths = _read_particles(data.get("particles"), lengths, chain_lengths)
         if data.get("pair") is not None and not method.pair_forces:
             _refuse_section("pair", method, "pair_forces")
-        pair = _read_pair(data.get("pair"), particles.species)
-        if pair is not None and pair.kind == "wca":
-            cutoff = _wca_cutoff(data, pair)
+        pair = None if data.get("pair") is None else read_pair(data["pair"], particles.species)
+        if pair is not None:
+            cutoff = PAIR_LAWS.get(pair.kind).cutoff(pair, cutoff, data.get("cutoff"))
         range_name, pair_range = method.pair_range(solvent, cutoff)
         list_cutoff = pair_range + neighbors.skin
         heights = make_box(box_kind, lengths, flow).cell_heights
@@ -545,10 +535,8 @@ class Scene:
         data["solvent"] = self.solvent_component.to_dict(self.solvent)
         if self.pair is None:
             del data["pair"]
-        elif self.pair.kind == "wca":
-            data["pair"] = {"kind": "wca", "epsilon": self.pair.epsilon, "sigma": self.pair.sigma}
         else:
-            data["pair"] = {"kind": self.pair.kind, "a": [list(row) for row in self.pair.a]}
+            data["pair"] = PAIR_LAWS.get(self.pair.kind).to_dict(self.pair)
         data["polymers"] = [
             {"species": p.species, "beads": p.beads, "bond": p.bond_parameters}
             for p in self.polymers
@@ -845,94 +833,6 @@ def _read_species(entries, total: int, chain_lengths: dict) -> tuple[Species, ..
     raise ValueError("particles.species: give every species a count, or every one a fraction")
 
 
-def _read_pair(section, species) -> Pair | None:
-    if section is None:
-        return None
-    check_keys(section, ("kind", "a", "epsilon", "sigma"), "pair")
-    kind = read_choice(section, "kind", "pair", PAIR_KINDS, "soft_repulsion")
-    if kind == "wca":
-        if "a" in section:
-            raise ValueError("pair.a: belongs to kind 'soft_repulsion'; 'wca' takes epsilon, sigma")
-        positive = {"minimum": 0, "exclusive_minimum": True}
-        return Pair(
-            kind,
-            epsilon=read_number(section, "epsilon", "pair", **positive),
-            sigma=read_number(section, "sigma", "pair", **positive),
-        )
-    misplaced = sorted({"epsilon", "sigma"} & set(section))
-    if misplaced:
-        raise ValueError(f"pair: {misplaced} belong to kind 'wca', not 'soft_repulsion'")
-    names = [s.name for s in species]
-    n = len(names)
-    if "a" not in section:
-        raise ValueError("pair.a: required field is missing (number, S×S list or species table)")
-    a = section["a"]
-    if isinstance(a, (int, float)) and not isinstance(a, bool):
-        value = read_number(section, "a", "pair")
-        matrix = [[value] * n for _ in range(n)]
-    elif isinstance(a, dict):
-        matrix = [[None] * n for _ in range(n)]
-        for key in a:
-            if not isinstance(key, str):
-                raise TypeError(f"pair.a: key {key!r} must be a string 'A-B' of species names")
-            parts = key.split("-")
-            if len(parts) != 2:
-                raise ValueError(f"pair.a: key {key!r} must be 'A-B' with two species names")
-            for part in parts:
-                if part not in names:
-                    raise ValueError(f"pair.a: unknown species {part!r}; species are {names}")
-            p, q = names.index(parts[0]), names.index(parts[1])
-            number = read_number(a, key, "pair.a")
-            for x, y in ((p, q), (q, p)):
-                if matrix[x][y] is not None and matrix[x][y] != number:
-                    raise ValueError(f"pair.a: {key!r} given twice with different values")
-                matrix[x][y] = number
-        missing = [
-            f"{names[p]}-{names[q]}" for p in range(n) for q in range(p, n) if matrix[p][q] is None
-        ]
-        if missing:
-            raise ValueError(f"pair.a: missing entries {missing}")
-    elif isinstance(a, list):
-        if len(a) != n or any(not isinstance(row, list) or len(row) != n for row in a):
-            raise ValueError(f"pair.a: expected a {n}×{n} matrix (species {names}), got {a!r}")
-        matrix = [[read_number({"a": v}, "a", "pair") for v in row] for row in a]
-        for p in range(n):
-            for q in range(p + 1, n):
-                if matrix[p][q] != matrix[q][p]:
-                    raise ValueError(
-                        f"pair.a: must be symmetric; a[{p}][{q}] = {matrix[p][q]} but "
-                        f"a[{q}][{p}] = {matrix[q][p]}"
-                    )
-    else:
-        raise TypeError(f"pair.a: expected a number, list or table, got {type(a).__name__}")
-    return Pair(kind, tuple(tuple(row) for row in matrix))
-
-
-def _wca_cutoff(data: dict, pair: Pair) -> float:
-    """The cut-off of a WCA scene: 2^(1/6) σ; a given `cutoff` must equal it."""
-    wca_range = 2 ** (1 / 6) * pair.sigma
-    if "cutoff" in data and not math.isclose(data["cutoff"], wca_range, rel_tol=1e-9):
-        raise ValueError(
-            f"cutoff = {data['cutoff']!r}: with pair.kind = 'wca' the cut-off is the WCA "
-            f"range 2^(1/6) sigma = {wca_range:.6g}; remove cutoff"
-        )
-    return wca_range
-
-
-BOND_PARAMETERS = {
-    "hookean": {"spring_constant": REQUIRED},
-    "fraenkel": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
-    "harmonic": {"spring_constant": REQUIRED, "rest_length": REQUIRED},
-    "fene": {"spring_constant": REQUIRED, "max_extension": REQUIRED},
-    "fene_log_wca": {
-        "spring_constant": REQUIRED,
-        "max_extension": REQUIRED,
-        "wca_epsilon": 1.0,
-        "wca_sigma": 1.0,
-    },
-}
-
-
 def _polymer_entries(entries) -> list:
     if not isinstance(entries, list):
         raise TypeError(
@@ -964,33 +864,9 @@ def _read_polymers(entries: list, species) -> tuple[Polymer, ...]:
                 f"chains of {path}.beads = {beads}; give a count that is a positive multiple "
                 f"of {beads}"
             )
-        bond = _read_bond(entry.get("bond"), f"{path}.bond")
+        bond = read_bond(entry.get("bond"), f"{path}.bond")
         polymers.append(Polymer(name, beads, tuple(bond.items())))
     return tuple(polymers)
-
-
-def _read_bond(section, path: str) -> dict:
-    """The bond table."""
-    if section is None:
-        raise ValueError(f"{path}: required table is missing; law: {list(BOND_PARAMETERS)}")
-    check_keys(section, ("law", *{k for p in BOND_PARAMETERS.values() for k in p}), path)
-    law = read_choice(section, "law", path, tuple(BOND_PARAMETERS))
-    defaults = BOND_PARAMETERS[law]
-    misplaced = sorted(set(section) - {"law", *defaults})
-    if misplaced:
-        raise ValueError(f"{path}: {misplaced} are not parameters of law {law!r}")
-    bond = {"law": law}
-    for key, default in defaults.items():
-        strictly_positive = key != "rest_length" and key != "wca_epsilon"
-        bond[key] = read_number(
-            section, key, path, default, minimum=0, exclusive_minimum=strictly_positive
-        )
-    if law == "fene_log_wca" and not 2 ** (1 / 6) * bond["wca_sigma"] < bond["max_extension"]:
-        raise ValueError(
-            f"{path}: the WCA range 2^(1/6) wca_sigma = {2 ** (1 / 6) * bond['wca_sigma']:.4g} "
-            f"must be below max_extension = {bond['max_extension']}"
-        )
-    return bond
 
 
 def _read_integrator(section, method: SolventMethod, solvent: SolventParameters) -> Integrator:

@@ -14,10 +14,14 @@ from jaxdpd.geometry.boxes import PeriodicBox, make_box
 from jaxdpd.geometry.chain_topology import ChainBlock, chain_coordinates
 
 LAWS = {
-    "hookean": bonds.hookean(2.0, kT=1.0),
-    "fraenkel": bonds.fraenkel(30.0, 0.8, kT=1.0),
-    "fene": bonds.fene(0.5, 5.0, kT=1.0),
-    "fene_log_wca": bonds.fene_log_wca(30.0, 1.5, 1.0, 1.0),
+    "hookean": bonds.bond_law({"law": "hookean", "spring_constant": 2.0}, kT=1.0),
+    "fraenkel": bonds.bond_law(
+        {"law": "fraenkel", "spring_constant": 30.0, "rest_length": 0.8}, kT=1.0
+    ),
+    "fene": bonds.bond_law({"law": "fene", "spring_constant": 0.5, "max_extension": 5.0}, kT=1.0),
+    "fene_log_wca": bonds.bond_law(
+        {"law": "fene_log_wca", "spring_constant": 30.0, "max_extension": 1.5}, kT=1.0
+    ),
 }
 BOX = PeriodicBox((12.0, 13.0, 14.0))
 
@@ -142,3 +146,60 @@ def test_harmonic_is_the_fraenkel_law_under_its_md_name():
     assert harmonic.name == "harmonic"
     np.testing.assert_array_equal(harmonic.stiffness(q_sq), fraenkel.stiffness(q_sq))
     np.testing.assert_allclose(harmonic.energy(jnp.asarray([1.0])), 0.5 * 30.0 * 0.2**2)
+
+
+class _Quartic(bonds.BondLaw):
+    """A toy law U = ¼ c Q⁴ (T/Q = c Q²), defined here to show that a new bond law is
+    one class plus one registry line."""
+
+    name = "quartic"
+    parameters = {"c": bonds.Parameter(2.0)}
+
+    def stiffness(self, q_sq, c):
+        return c * q_sq
+
+    def energy(self, q_sq, c):
+        return 0.25 * c * q_sq * q_sq
+
+    def placement_length(self, values, kT):
+        return 1.0
+
+
+def test_a_registered_law_is_read_from_a_bond_table_and_drives_the_springs():
+    """A law registered from outside the package is known to the scene reader (with its
+    defaults and its own parameter names) and its forces are −∇U."""
+    bonds.BOND_LAWS.register(_Quartic())
+    try:
+        assert bonds.read_bond({"law": "quartic"}, "polymers[0].bond") == {
+            "law": "quartic",
+            "c": 2.0,
+        }
+        with pytest.raises(ValueError, match=r"\['spring_constant'\] are not parameters"):
+            bonds.read_bond({"law": "quartic", "spring_constant": 1.0}, "polymers[0].bond")
+        law = bonds.bond_law({"law": "quartic", "c": 3.0}, kT=1.0)
+        positions, image, unwrapped = _chains(2)
+
+        def energy(unwrapped_positions):
+            springs = unwrapped_positions[:, 1:] - unwrapped_positions[:, :-1]
+            return jnp.sum(law.energy(jnp.sum(springs**2, axis=-1)))
+
+        result = bonds.chain_bond_forces(BOX, positions, image, law, with_virial=False)
+        expected = -jax.grad(energy)(jnp.asarray(unwrapped))
+        np.testing.assert_allclose(result.forces, expected, rtol=1e-10, atol=1e-12)
+    finally:
+        bonds.BOND_LAWS.unregister("quartic")
+    with pytest.raises(ValueError, match="polymers\\[0\\].bond.law = 'quartic': valid values"):
+        bonds.read_bond({"law": "quartic"}, "polymers[0].bond")
+
+
+def test_brownian_springs_are_the_bond_laws_with_unit_spring_constant():
+    """The dumbbell force factor f(Q²) of jaxdpd.brownian.springs is the DPD law's T/Q
+    with H = 1, Q0 = √b (one definition of each law)."""
+    from jaxdpd.brownian import FENE, Hookean
+
+    q_sq = jnp.linspace(0.0, 40.0, 9)
+    fene = bonds.bond_law({"law": "fene", "spring_constant": 1.0, "max_extension": 50**0.5}, 1.0)
+    np.testing.assert_array_equal(FENE(50.0).force_factor(q_sq), fene.stiffness(q_sq))
+    np.testing.assert_allclose(FENE(50.0).force_factor(q_sq), 1 / (1 - q_sq / 50), rtol=1e-14)
+    np.testing.assert_array_equal(Hookean().force_factor(q_sq), jnp.ones_like(q_sq))
+    np.testing.assert_array_equal(Hookean().potential(q_sq), 0.5 * q_sq)

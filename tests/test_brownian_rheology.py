@@ -266,7 +266,7 @@ def test_planar_elongation_trouton_ratio(fene_low):
     """Must show 4.  Trouton ratio eta_bar_1 / eta_p0 = 4 in planar elongation in the
     linear regime (Bird, Armstrong & Hassager vol. 1, ch. 3; thesis §4.3.3).  eta_bar_1 is
     extrapolated to De -> 0 by a weighted fit A + C De^2 to De = 0.02, 0.04, 0.06 (the
-    O(De) term vanishes by the x <-> y symmetry of planar flow; O(De^4) is < 1e-4
+    O(De) term vanishes by the x <-> z symmetry of planar flow; O(De^4) is < 1e-4
     relative here); eta_p0 is the measured shear viscosity at De = 0.02 (its eq. 4.6
     correction is 2e-5)."""
     planar, shear = fene_low["planar"], fene_low["shear"]

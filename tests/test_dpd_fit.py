@@ -37,13 +37,17 @@ from jaxdpd.studies.dpd_fit import (
 
 SIGMAS = 4.0
 LAWS = {
-    "hookean": bonds.hookean(2.0, kT=1.0),
-    "fraenkel": bonds.fraenkel(30.0, 0.8, kT=1.0),
+    "hookean": bonds.bond_law({"law": "hookean", "spring_constant": 2.0}, kT=1.0),
+    "fraenkel": bonds.bond_law(
+        {"law": "fraenkel", "spring_constant": 30.0, "rest_length": 0.8}, kT=1.0
+    ),
     "harmonic": bonds.bond_law(
         {"law": "harmonic", "spring_constant": 30.0, "rest_length": 0.8}, kT=1.0
     ),
-    "fene": bonds.fene(0.5, 5.0, kT=1.0),
-    "fene_log_wca": bonds.fene_log_wca(30.0, 1.5, 1.0, 1.0),
+    "fene": bonds.bond_law({"law": "fene", "spring_constant": 0.5, "max_extension": 5.0}, kT=1.0),
+    "fene_log_wca": bonds.bond_law(
+        {"law": "fene_log_wca", "spring_constant": 30.0, "max_extension": 1.5}, kT=1.0
+    ),
 }
 CHANGED = {
     "hookean": {"spring_constant": 3.0},
@@ -102,7 +106,7 @@ def test_canonical_sensitivity_of_exact_fene_samples():
     h, q0, springs, steps = 2.0, 2.5, 50, 4000
     q = fene_samples(jax.random.key(2), h, q0, springs, steps)
     q_sq = np.sum(q * q, axis=-1)
-    law = bonds.fene(h, q0, kT=1.0)
+    law = bonds.bond_law({"law": "fene", "spring_constant": h, "max_extension": q0}, kT=1.0)
     energy_derivative = jax.vmap(
         jax.grad(lambda value, x: law.with_parameters({"spring_constant": value,
                                                        "max_extension": q0}).energy(x)),

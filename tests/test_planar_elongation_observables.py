@@ -18,7 +18,7 @@ from jaxdpd.analysis.elongation import (
     elongational_material_functions,
     elongational_viscosities,
 )
-from jaxdpd.forces.bonds import fene
+from jaxdpd.forces.bonds import bond_law
 from jaxdpd.geometry.boxes import KraynikReineltBox
 from jaxdpd.geometry.chain_topology import ChainBlock
 from jaxdpd.observables.chain_series import conformation_samples
@@ -82,7 +82,13 @@ def test_straight_chain_cut_by_the_deforming_faces_keeps_its_shape(strain):
     raw = corner + bond * np.arange(beads)[:, None] * direction
     positions, image = bound.wrap(jnp.asarray(raw), jnp.zeros((beads, 3), jnp.int32))
     assert np.any(np.asarray(image) != 0), "the chain must cross a face"
-    block = ChainBlock("chain", 0, 1, beads, fene(30.0, q0, 1.0))
+    block = ChainBlock(
+        "chain",
+        0,
+        1,
+        beads,
+        bond_law({"law": "fene", "spring_constant": 30.0, "max_extension": q0}, kT=1.0),
+    )
     # One compiled call rather than op-by-op dispatch (much faster to run).
     samples = jax.jit(lambda wrapped: conformation_samples(bound, wrapped, [block]))(positions)
     expected = {

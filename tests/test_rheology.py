@@ -26,7 +26,7 @@ from jaxdpd import brownian as bd
 from jaxdpd.analysis import rheology
 from jaxdpd.analysis.running_averages import RunningBlockAverages
 from jaxdpd.analysis.statistics import inverse_variance_mean, ratio_of_means
-from jaxdpd.forces.bonds import fene, hookean
+from jaxdpd.forces.bonds import bond_law
 from jaxdpd.geometry.boxes import PeriodicBox
 from jaxdpd.geometry.chain_topology import ChainBlock
 from jaxdpd.observables import chain_series
@@ -130,8 +130,16 @@ def test_stress_parts_add_up_and_the_bond_part_gives_the_polymer_functions():
 
 def _two_blocks():
     """A block of 3 FENE dumbbells and a block of 2 Hookean chains of 4 beads."""
-    dumbbells = ChainBlock("dumbbell", 0, 3, 2, fene(2.0, 3.0, kT=1.0))
-    chains = ChainBlock("chain", 6, 2, 4, hookean(3.0, kT=1.0))
+    dumbbells = ChainBlock(
+        "dumbbell",
+        0,
+        3,
+        2,
+        bond_law({"law": "fene", "spring_constant": 2.0, "max_extension": 3.0}, kT=1.0),
+    )
+    chains = ChainBlock(
+        "chain", 6, 2, 4, bond_law({"law": "hookean", "spring_constant": 3.0}, kT=1.0)
+    )
     rng = np.random.default_rng(4)
     springs = rng.uniform(-0.9, 0.9, size=(3 + 2 * 3, 3))
     box = PeriodicBox((10.0, 11.0, 12.0))

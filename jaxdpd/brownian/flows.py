@@ -9,13 +9,15 @@ flow                        kappa (rows i, columns j)                    rate
 ==========================  ===========================================  ==========
 ``equilibrium``             0                                            ignored
 ``shear``                   kappa_xy = rate (v_x = rate * y)             shear rate
-``planar_elongation``       diag(rate, -rate, 0)                         eps_dot
+``planar_elongation``       diag(-rate, 0, rate)                         eps_dot
 ``uniaxial_elongation``     diag(rate, -rate/2, -rate/2)                 eps_dot
 ==========================  ===========================================  ==========
 
-All are traceless (incompressible).  Reference: Bird, Armstrong & Hassager, *Dynamics
-of Polymeric Liquids* vol. 1, 2nd ed. (1987), ch. 3 (shear and shear-free flows);
-Clarke thesis ch. 4 (shear and planar elongation, x stretched and y compressed).
+All are traceless (incompressible).  Planar elongation stretches along z, compresses
+along x and leaves y neutral, the convention of the DPD flows and the Kraynik–Reinelt
+box (jaxdpd.geometry.flows, thesis eq. 5.12; docs/conventions.md).  Reference: Bird,
+Armstrong & Hassager, *Dynamics of Polymeric Liquids* vol. 1, 2nd ed. (1987), ch. 3
+(shear and shear-free flows); Clarke thesis ch. 4 (shear and planar elongation).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ FLOWS = ("equilibrium", "shear", "planar_elongation", "uniaxial_elongation")
 _PATTERNS = {
     "equilibrium": np.zeros((3, 3)),
     "shear": np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
-    "planar_elongation": np.diag([1.0, -1.0, 0.0]),
+    "planar_elongation": np.diag([-1.0, 0.0, 1.0]),
     "uniaxial_elongation": np.diag([1.0, -0.5, -0.5]),
 }
 

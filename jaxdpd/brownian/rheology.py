@@ -15,12 +15,15 @@ flow                   material function                       formula        re
 shear                  ``viscosity`` eta_p                     -tau_xy / De   eq. 4.12
 shear                  ``psi1`` Psi_1                          -(tau_xx - tau_yy) / De^2   eq. 4.13
 shear                  ``psi2`` Psi_2                          -(tau_yy - tau_zz) / De^2   BAH ch. 3
-planar_elongation      ``elongational_viscosity_1`` eta_bar_1  -(tau_xx - tau_yy) / De   BAH ch. 3
-planar_elongation      ``elongational_viscosity_2`` eta_bar_2  -(tau_zz - tau_yy) / De   BAH ch. 3
+planar_elongation      ``elongational_viscosity_1`` eta_bar_1  -(tau_zz - tau_xx) / De thesis 3.25
+planar_elongation      ``elongational_viscosity_2`` eta_bar_2  -(tau_yy - tau_xx) / De thesis 3.26
 uniaxial_elongation    ``elongational_viscosity`` eta_bar      -(tau_xx - tau_yy) / De   BAH ch. 3
 all                    ``q2`` <Q^2>; ``extension2`` <Q^2>/Q_0^2 (thesis Fig. 4-10);
                        ``extension`` <|Q|>/Q_0 (NaN for Hookean springs)
 =====================  ======================================  ============== =========
+
+Planar elongation stretches along z and compresses along x (y neutral), as in the DPD
+flows (:mod:`jaxdpd.brownian.flows`, docs/conventions.md).
 
 In the linear (Newtonian) limit the polymer stress is ``-eta_p0 (kappa + kappa^T)``, so
 the Trouton ratios are ``eta_bar_1/eta_p0 = 4`` (planar) and ``eta_bar/eta_p0 = 3``
@@ -137,8 +140,8 @@ def material_functions(flow: str, rate, fqq, q2=None, q=None, spring=None):
         d["psi1"] = (fqq[..., 0, 0] - fqq[..., 1, 1]) / rate**2
         d["psi2"] = (fqq[..., 1, 1] - fqq[..., 2, 2]) / rate**2
     elif flow == "planar_elongation":
-        d["elongational_viscosity_1"] = (fqq[..., 0, 0] - fqq[..., 1, 1]) / rate
-        d["elongational_viscosity_2"] = (fqq[..., 2, 2] - fqq[..., 1, 1]) / rate
+        d["elongational_viscosity_1"] = (fqq[..., 2, 2] - fqq[..., 0, 0]) / rate
+        d["elongational_viscosity_2"] = (fqq[..., 1, 1] - fqq[..., 0, 0]) / rate
     elif flow == "uniaxial_elongation":
         d["elongational_viscosity"] = (fqq[..., 0, 0] - fqq[..., 1, 1]) / rate
     if q2 is not None:

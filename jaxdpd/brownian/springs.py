@@ -1,13 +1,17 @@
-"""Hookean and FENE (Warner) spring laws for dumbbells, in dimensionless form.
+"""Hookean and FENE (Warner) springs of dumbbells: the bond laws in dumbbell units.
 
 Units (Clarke thesis eq. 4.10): length ``sqrt(k_B T / H)``, time ``lambda_H = zeta/(4H)``.
-A spring is written as ``F_hat(Q) = f(Q^2) Q`` with the *force factor*
+In them the spring constant is H = 1 and a spring is written as ``F_hat(Q) = f(Q^2) Q``
+with the *force factor*
 
     Hookean (eq. 4.1):   f = 1
     FENE    (eq. 4.2):   f = 1 / (1 - Q^2 / b),     b = H Q_0^2 / (k_B T)   (eq. 4.5)
 
-so that ``Q_hat_0^2 = b``.  Springs are pytrees (``b`` is a leaf), so they can be
-vmapped over and differentiated with respect to.
+so that ``Q_hat_0^2 = b``.  The force factor and the energy are those of the DPD chains'
+bond laws (:data:`jaxdpd.forces.bonds.HOOKEAN`, :data:`jaxdpd.forces.bonds.FENE`)
+with H = 1 and Q_0 = sqrt(b): one definition of each law.  The classes here add what
+the Brownian integrator needs of a spring.  Springs are pytrees (``b`` is a leaf), so
+they can be vmapped over and differentiated with respect to.
 
 Each spring also solves the implicit half-step of the semi-implicit integrator
 (:mod:`jaxdpd.brownian.dynamics`): given ``R = |rhs| >= 0`` and ``h = dt/4``, find the
@@ -31,6 +35,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxdpd.brownian._checks import check_positive, float_dtype
+from jaxdpd.forces import bonds
 
 __all__ = ["Hookean", "FENE", "check_spring"]
 
@@ -40,11 +45,11 @@ __all__ = ["Hookean", "FENE", "check_spring"]
 class Hookean:
     """Hookean spring, ``F_hat = Q_hat`` (thesis eq. 4.1).  No parameter: H sets the units."""
 
-    name = "hookean"
+    name = bonds.HOOKEAN.name
 
     def force_factor(self, q2):
-        """``f(Q^2) = 1``; shape of ``q2``."""
-        return jnp.ones_like(q2)
+        """``f(Q^2) = 1``: the Hookean law's stiffness at H = 1; shape of ``q2``."""
+        return bonds.HOOKEAN.stiffness(q2, spring_constant=1.0)
 
     def max_q2(self, dtype=jnp.float64):
         """Maximum ``Q^2``: infinite for a Hookean spring."""
@@ -56,7 +61,7 @@ class Hookean:
 
     def potential(self, q2):
         """Spring energy in units of k_B T: ``Q^2 / 2``."""
-        return 0.5 * q2
+        return bonds.HOOKEAN.energy(q2, spring_constant=1.0)
 
     def implicit_length(self, r, h):
         """Solve (*) for the Hookean spring: ``l = R / (1 + h)``.
@@ -85,11 +90,12 @@ class FENE:
 
     b: jax.Array | float
 
-    name = "fene"
+    name = bonds.FENE.name
 
     def force_factor(self, q2):
-        """``f(Q^2) = 1 / (1 - Q^2/b)``; shape of ``q2``."""
-        return 1 / (1 - q2 / self.b)
+        """``f(Q^2) = 1 / (1 - Q^2/b)``: the FENE law's stiffness at H = 1, Q_0 = sqrt(b);
+        shape of ``q2``."""
+        return bonds.FENE.stiffness(q2, spring_constant=1.0, max_extension=self.b**0.5)
 
     def max_q2(self, dtype=jnp.float64):
         """Maximum ``Q^2 = Q_0^2 = b``."""
@@ -102,7 +108,7 @@ class FENE:
 
     def potential(self, q2):
         """Spring energy in units of k_B T: ``-(b/2) ln(1 - Q^2/b)``."""
-        return -0.5 * self.b * jnp.log1p(-q2 / self.b)
+        return bonds.FENE.energy(q2, spring_constant=1.0, max_extension=self.b**0.5)
 
     def implicit_length(self, r, h):
         """Root of ``l (1 + h/(1 - l^2/b)) = R`` in ``[0, sqrt(b))``.

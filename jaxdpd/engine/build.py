@@ -30,7 +30,7 @@ from jaxdpd.engine.precision import enable_float64
 from jaxdpd.engine.state import SimState
 from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
 from jaxdpd.forces.bonds import chain_bond_forces
-from jaxdpd.forces.pair_laws import soft_repulsion_term, wca_term
+from jaxdpd.forces.pair_laws import PAIR_LAWS
 from jaxdpd.forces.pair_sums import pair_geometry, pair_sums
 from jaxdpd.forces.spring_repulsion import (
     pair_magnitudes,
@@ -122,10 +122,8 @@ def pair_terms(scene: Scene, dtype) -> list:
     """The pair laws the scene names, in the order they are summed: the [pair] law,
     then the solvent method's terms."""
     terms = []
-    if scene.pair is not None and scene.pair.kind == "wca":
-        terms.append(wca_term(scene.pair.epsilon, scene.pair.sigma, dtype))
-    elif scene.pair is not None:
-        terms.append(soft_repulsion_term(scene.pair.a, dtype))
+    if scene.pair is not None:
+        terms.append(PAIR_LAWS.get(scene.pair.kind).term(scene.pair, dtype))
     terms.extend(scene.solvent_component.pair_terms(scene, dtype))
     return terms
 

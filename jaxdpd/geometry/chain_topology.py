@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 
-from jaxdpd.forces.bonds import BondLaw, bond_law
+from jaxdpd.forces.bonds import Bond, bond_law
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class ChainBlock:
     first: int
     n_chains: int
     beads: int
-    law: BondLaw
+    law: Bond
 
     @property
     def stop(self) -> int:

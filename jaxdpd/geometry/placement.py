@@ -8,12 +8,13 @@ Maxwell–Boltzmann at the solvent's k_BT (variance k_BT/m per component) with z
 total momentum; for a Hoogerbrugge–Koelman solvent, which sets no temperature, at
 its solvent.initial_kT (jaxdpd.scene), and the springs are placed for it too.
 
-With a hard-core pair force (pair.kind = "wca") overlapping particles would start
-with enormous forces, so every particle is then placed at least σ away (minimum
-image) from all earlier ones, except a chain bead from its predecessor: chains grow
-as self-avoiding walks (a trapped chain is regrown), free particles are drawn until
-they fit.  Either placement gives up with a ValueError after PLACEMENT_SECONDS of
-wall time rather than hang on a box too crowded (or too large) for it.
+With a hard-core pair force (a pair law with a `core_diameter` σ, pair.kind = "wca")
+overlapping particles would start with enormous forces, so every particle is then
+placed at least σ away (minimum image) from all earlier ones, except a chain bead
+from its predecessor: chains grow as self-avoiding walks (a trapped chain is
+regrown), free particles are drawn until they fit.  Either placement gives up with a
+ValueError after PLACEMENT_SECONDS of wall time rather than hang on a box too crowded
+(or too large) for it.
 
 With [spring_repulsion] a crossing or nearly touching spring pair would start tens of
 k_BT up the repulsion's energy (A = 100 k_BT at contact for the Kumar–Larson law),
@@ -31,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.forces.pair_laws import PAIR_LAWS
 from jaxdpd.forces.spring_repulsion import closest_approach
 
 
@@ -49,8 +51,9 @@ def initial_configuration(scene, box, dtype, blocks):
     n = scene.n_particles
     rng = np.random.default_rng(scene.seed)
     lengths = np.asarray(box.lengths, np.float64)
-    if scene.pair is not None and scene.pair.kind == "wca":
-        unwrapped = _excluded_volume_configuration(rng, n, blocks, lengths, scene.pair.sigma)
+    core = None if scene.pair is None else PAIR_LAWS.get(scene.pair.kind).core_diameter(scene.pair)
+    if core is not None:
+        unwrapped = _excluded_volume_configuration(rng, n, blocks, lengths, core)
     else:
         unwrapped = rng.uniform(size=(n, 3)) * lengths
         for block in blocks:

@@ -74,7 +74,7 @@ def free_spring_length(law, kT: float, tail: float = FREE_SPRING_TAIL) -> float:
     maximum extension, or to where U rises 80 k_BT above its minimum.
 
     Args:
-        law: jaxdpd.forces.bonds.BondLaw.
+        law: jaxdpd.forces.bonds.Bond.
         kT: k_BT.
         tail: the probability of a longer spring.
     Returns:
