@@ -1,6 +1,7 @@
 """Groot–Warren thermostat: ⟨k_BT⟩ at its set value, Maxwellian velocities."""
 
 import numpy as np
+import pytest
 from conftest import make_scene
 from scipy import stats
 
@@ -48,6 +49,10 @@ def test_temperature_and_maxwellian_velocities_at_dt_001():
     assert abs(fourth.mean() - 3.0) < 5 * fourth.std() / np.sqrt(len(fourth))
 
 
+# Long statistical validation (4500 steps in chunks of 10): -m slow.  The default run
+# keeps the thermostat's temperature and Maxwellian velocities (test above) and
+# momentum conservation with unequal masses (test_dpd_invariants.py).
+@pytest.mark.slow
 def test_unequal_masses_share_the_temperature():
     """Equipartition: in a DPD fluid of particles of mass 1 and 4 both species have
     ⟨m v²⟩/3 = k_BT (canonical ensemble; the thermostat acts on relative velocities

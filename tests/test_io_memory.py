@@ -16,6 +16,7 @@ chunk, a checkpoint every 5), between chunk 40 and chunk 120 (80 chunks):
 """
 
 import numpy as np
+import pytest
 from io_runs import MEMORY_WINDOW, MemoryProbe, reference_run
 
 from jaxdpd.run.runner import simulate
@@ -37,6 +38,10 @@ def test_memory_stays_flat_over_80_chunks_of_a_streamed_run():
     assert memory.live_arrays[1] - memory.live_arrays[0] < 10
 
 
+# The control reruns the whole reference run (≈ 45 s) to show the probe can fail;
+# needed when the probe or the bounds change: -m slow.  The streaming test above stays
+# in the default run.
+@pytest.mark.slow
 def test_the_memory_probe_sees_series_kept_in_memory(tmp_path):
     """Control: the same run keeping its series (keep_series=True) grows past the
     bound, so the streaming test above can fail."""

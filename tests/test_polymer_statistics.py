@@ -108,6 +108,12 @@ def _check_ideal_statistics(series):
     _check(series["chain/bond_length_sq"], l_sq, bias)
 
 
+# Long statistical validations (2500 steps of 1200 particles, and 10× that): -m slow.
+# The default run keeps the bond forces (test_bonds.py), the exact FENE ⟨Q²⟩ of the
+# equilibrium sampler (test_brownian_dynamics.py), DPD chains and dumbbells run with
+# their conformation observables (test_chain_correlators.py) and the Gaussian-chain
+# estimators (test_polymer_conformation.py).
+@pytest.mark.slow
 def test_ideal_chain_and_fene_dumbbell_statistics():
     _check_ideal_statistics(_run(ideal_polymer_scene(), 500, 2000))
 

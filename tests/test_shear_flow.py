@@ -109,6 +109,10 @@ def viscosities(series, scene, shear_rates, force_amplitude, waves=1):
     )
 
 
+# Long statistical validation (3250 steps of 1500 particles): -m slow.  The default run
+# keeps the sheared fluid's homogeneity and momentum (test above), the stress estimator
+# (test_rheology.py) and the cosine body force's scene rules (test_drag.py).
+@pytest.mark.slow
 def test_viscosity_from_stress_equals_viscosity_from_cosine_flow():
     """One run at γ̇ = 0.2 with a cosine force of peak local rate ≈ 0.2 (both within
     the Newtonian range): the stress and the flow amplitude give one η."""
