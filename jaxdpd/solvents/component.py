@@ -22,6 +22,10 @@ Scene section
     step_time(scene)          simulated time per step
     memory(scene, box_volume, itemsize)
                               {field: bytes} of its own device arrays
+    example_scene(precision)  a small valid scene dict (a few hundred particles at
+                              most) that runs in seconds: the contract tests
+                              (tests/test_solvent_contracts.py) run every registered
+                              method through it
 
 Capabilities
     flows                     the flow kinds it has a step for
@@ -138,6 +142,14 @@ class SolventMethod:
 
     def memory(self, scene, box_volume: float, itemsize: int) -> dict:
         return {}
+
+    def example_scene(self, precision: str = "float64") -> dict:
+        """A minimal valid scene dict of this method in `precision` ("float32" or
+        "float64"), small enough for a contract test to run it in seconds."""
+        raise NotImplementedError(
+            f"solvent method {self.name!r} provides no example_scene(precision); "
+            "the contract tests (tests/test_solvent_contracts.py) need one"
+        )
 
     # -- engine -------------------------------------------------------------------
     def pair_terms(self, scene, dtype) -> list:

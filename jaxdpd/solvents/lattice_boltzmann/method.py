@@ -137,6 +137,35 @@ class LatticeBoltzmann(component.SolventMethod):
         side = scene.solvent.grid_spacing
         return {"solvent.grid_spacing": 2 * 19 * itemsize * box_volume / side / side / side}
 
+    def example_scene(self, precision="float64") -> dict:
+        """Six Kremer–Grest chains of 10 beads (WCA + FENE) in a 6³ fluctuating fluid
+        (the parameters of the packaged lb_chain scene)."""
+        return {
+            "seed": 5,
+            "precision": precision,
+            "box": {"lengths": [6.0, 6.0, 6.0]},
+            "particles": {"count": 60, "species": [{"name": "monomer"}]},
+            "solvent": {
+                "method": "lattice_boltzmann",
+                "kT": 1.2,
+                "grid_spacing": 1.0,
+                "time_step": 0.05,
+                "mass_density": 0.864,
+                "kinematic_viscosity": 2.8,
+                "friction": 31.473,
+            },
+            "pair": {"kind": "wca", "epsilon": 1.0, "sigma": 1.0},
+            "polymers": [
+                {
+                    "species": "monomer",
+                    "beads": 10,
+                    "bond": {"law": "fene_log_wca", "spring_constant": 7.0, "max_extension": 2.0},
+                }
+            ],
+            "integrator": {"dt": 0.01},
+            "neighbors": {"method": "all_pairs"},
+        }
+
     def advance(self, context):
         scene = context.scene
         return coupled_step(

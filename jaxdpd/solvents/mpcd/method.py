@@ -143,6 +143,31 @@ class MPCD(component.SolventMethod):
             return 0, 0
         return min(b.first for b in blocks), max(b.stop for b in blocks)
 
+    def example_scene(self, precision="float64") -> dict:
+        """An SRD fluid of 5 particles per cell in a 4³ box with two Gaussian chains of
+        10 monomers of mass 5 (h = 0.1, monomer sub-step 0.01)."""
+        return {
+            "seed": 5,
+            "precision": precision,
+            "box": {"lengths": [4.0, 4.0, 4.0]},
+            "particles": {
+                "count": 340,
+                "species": [
+                    {"name": "solvent", "count": 320},
+                    {"name": "monomer", "count": 20, "mass": 5.0},
+                ],
+            },
+            "solvent": {"method": "mpcd", "collision_time": 0.1, "kT": 1.0},
+            "integrator": {"dt": 0.01},
+            "polymers": [
+                {
+                    "species": "monomer",
+                    "beads": 10,
+                    "bond": {"law": "hookean", "spring_constant": 3.0},
+                }
+            ],
+        }
+
     def advance(self, context):
         return mpcd_step(
             context.scene,
