@@ -38,7 +38,6 @@ from jaxdpd.io.checkpoint import (
     PRODUCTION,
     checkpoint_path,
     read_checkpoint_info,
-    read_checkpoint_state,
 )
 from jaxdpd.io.errors import RunFileError
 from jaxdpd.io.h5md import H5MDWriter, box_edges
@@ -47,6 +46,7 @@ from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.run import driver
+from jaxdpd.run.restore import restore
 from jaxdpd.scene import Scene
 
 # Components of the pressure tensor reported in the summary table.
@@ -454,8 +454,7 @@ def prepare_resume(path, steps: int | None = None, **options) -> Run:
                 f"production steps; give at least {done}"
             )
         scene = scene.replace(run={"steps": steps})
-    simulation = build(scene)
-    state = read_checkpoint_state(path, simulation.init_fn())
+    simulation, state = restore(path, build(scene))
     run = Run(simulation, state, None, info.phase, **options)
     run.restore_accumulators(info)
     run.writer = H5MDWriter.reopen(path, scene, info)
