@@ -35,6 +35,7 @@ from jaxdpd.analysis.conformation import (
 )
 from jaxdpd.forces.pair_laws import soft_repulsion
 from jaxdpd.geometry.chain_topology import chain_coordinates
+from jaxdpd.observables.component import Observable
 
 
 def conformation_samples(box, positions, blocks, parameters=None, image=None) -> dict:
@@ -129,3 +130,50 @@ def ideal_references(blocks, kT: float) -> dict:
             if m > 2:
                 references[f"{block.species}/end_to_end_sq"] = (m - 1) * l_sq
     return references
+
+
+class Conformation(Observable):
+    """The per-step chain conformation samples of every block (module docstring);
+    with "pressure" and a [pair], each block's spring_pair_pressure too."""
+
+    name = "conformation"
+    needs_polymers = True
+    units = {
+        name: "r_c^2"
+        for name in (
+            "bond_length_sq",
+            "bond_conformation",
+            "end_to_end_sq",
+            "end_to_end_conformation",
+            "gyration_radius_sq",
+        )
+    } | {"spring_pair_pressure": "k_BT/r_c^3"}
+
+    def sampler(self, context):
+        scene, box, blocks = context.scene, context.box, context.blocks
+        strengths = []  # (block, a of its species with itself)
+        if "pressure" in scene.output.observables and scene.pair is not None:
+            names = scene.species_names
+            strengths = [
+                (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
+                for block in blocks
+            ]
+
+        def sample(previous, state):
+            bound_box = box.bind(state.box_state)
+            samples = conformation_samples(
+                bound_box, state.positions, blocks, state.parameters, state.image
+            )
+            for block, strength in strengths:
+                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
+                    bound_box,
+                    state.positions,
+                    block,
+                    strength,
+                    scene.cutoff,
+                    scene.volume,
+                    state.image,
+                )
+            return state, samples
+
+        return sample

@@ -15,8 +15,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.geometry.boxes import make_box
 from jaxdpd.geometry.neighbors import PairList, neighbor_search
 from jaxdpd.geometry.neighbors.cell_list import cell_grid
+from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.validation import SceneError
 
 
 class RadialDistribution:
@@ -89,3 +92,24 @@ class RadialDistribution:
         expected = 0.5 * n * (n - 1) * shell_volume / self.box.volume * self.samples
         with np.errstate(invalid="ignore", divide="ignore"):
             return centres, self.counts / expected
+
+
+class Rdf(Observable):
+    """g(r), histogrammed on the host at chunk ends (`RadialDistribution`) and written
+    to /averages/rdf: no per-step sample."""
+
+    name = "rdf"
+    settings = (
+        Setting("rdf_bins", 100, minimum=1, integer=True),
+        Setting("rdf_max", 3.0, minimum=0, exclusive_minimum=True),
+    )
+
+    def check(self, scene):
+        heights = make_box(scene.box.kind, scene.box.lengths, scene.flow).cell_heights
+        rdf_max = scene.output.rdf_max
+        if not rdf_max < min(heights) / 2:
+            raise SceneError(
+                "output.rdf_max",
+                f"{rdf_max} must be < half the box's thinnest extent ({min(heights) / 2:.4g}; "
+                "the shortest edge, or a sheared box's tilted height)",
+            )

@@ -23,7 +23,7 @@ import jax
 import numpy as np
 
 from jaxdpd.engine import errors
-from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.observables import reduce_samples
 
 MAX_REALLOCATIONS = 8
 
@@ -174,9 +174,7 @@ def run(
             if on_error is not None:
                 on_error(state, error)
             raise
-        series = reduce_samples(
-            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
-        )
+        series = reduce_samples(samples, scene)
         if on_chunk is not None:
             on_chunk(ChunkResult(new_state, int(state.step), length, series))
         state = new_state

@@ -27,7 +27,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from jaxdpd.engine import errors
 from jaxdpd.geometry import flows
-from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.observables import reduce_samples
 from jaxdpd.run.driver import MAX_REALLOCATIONS, ChunkResult
 
 
@@ -189,9 +189,7 @@ def run(
         length = min(chunk, steps - done)
         first = int(np.asarray(batch.step)[0])
         batch, samples = run_chunk(simulation, batch, length)
-        series = reduce_samples(
-            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
-        )
+        series = reduce_samples(samples, scene)
         if on_chunk is not None:
             on_chunk(ChunkResult(batch, first, length, series))
         done += length
