@@ -47,3 +47,21 @@ def reduce_samples(samples: dict, scene) -> dict:
         if component.consumes and all(name in samples for name in component.consumes):
             series.update(component.reduce(samples, scene))
     return series
+
+
+def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
+    """Rows for the run summary: name -> (mean, standard error) as Python floats, from
+    every registered observable whose series are present.
+
+    Args:
+        scene: the run's scene.
+        series: name → (T, ...) series, per-step samples or the block means of a
+            streamed run (jaxdpd.analysis.running_averages.RunningBlockAverages.block_means,
+            T = n_blocks: every row is linear in the samples or a ratio of such means,
+            so block means give the same estimates).
+        n_blocks: blocks of the time series (≥ 2); shorter series give no row.
+    """
+    rows = {}
+    for component in OBSERVABLES:
+        rows.update(component.summary_rows(scene, series, n_blocks))
+    return rows

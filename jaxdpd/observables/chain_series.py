@@ -33,9 +33,16 @@ from jaxdpd.analysis.conformation import (
     fractional_extension,
     gyration_radius_squared,
 )
+from jaxdpd.analysis.rheology import PART_PREFIX, conformation_components
 from jaxdpd.forces.pair_laws import soft_repulsion
 from jaxdpd.geometry.chain_topology import chain_coordinates
-from jaxdpd.observables.component import Observable
+from jaxdpd.observables.component import (
+    Observable,
+    long_enough,
+    steady_shear_rate,
+    summary_row,
+)
+from jaxdpd.observables.drag import giesekus_drag
 
 
 def conformation_samples(box, positions, blocks, parameters=None, image=None) -> dict:
@@ -177,3 +184,33 @@ class Conformation(Observable):
             return state, samples
 
         return sample
+
+    def summary_rows(self, scene, series, n_blocks):
+        """The sheared components of each species' ⟨QQ⟩ (`conformation_components`)
+        and, for dumbbells under steady shear, the Giesekus drag coefficient
+        "<species>/drag_giesekus" (jaxdpd.observables.drag, "shear" component, springs
+        alone as thesis eq. 4.18) and "<species>/drag_giesekus_ev" (springs plus the
+        bead repulsion across them)."""
+        rows = {}
+        rate = steady_shear_rate(scene)
+        bond = f"{PART_PREFIX}bond"
+        for polymer in scene.polymers:
+            name = f"{polymer.species}/bond_conformation"
+            if not long_enough(series, name, n_blocks):
+                continue
+            for key, estimate in conformation_components(series[name], n_blocks).items():
+                rows[f"{name}_{key}"] = summary_row(estimate)
+            if rate is None or polymer.beads != 2 or not long_enough(series, bond, n_blocks):
+                continue
+            _, springs = scene.species_range(polymer.species)
+            density = springs / 2 / scene.volume
+            arguments = (series[bond], series[name], rate, density, scene.solvent.kT)
+            estimate = giesekus_drag(*arguments, n_blocks=n_blocks)
+            rows[f"{polymer.species}/drag_giesekus"] = summary_row(estimate)
+            repulsion = f"{polymer.species}/spring_pair_pressure"
+            if repulsion in series:
+                estimate = giesekus_drag(
+                    *arguments, n_blocks=n_blocks, intramolecular_pressure=series[repulsion]
+                )
+                rows[f"{polymer.species}/drag_giesekus_ev"] = summary_row(estimate)
+        return rows

@@ -34,6 +34,8 @@ over the scene's observables in registration order and name none of them.
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
 from jaxdpd.validation import read_number
 
 
@@ -119,5 +121,26 @@ class Observable:
         return {}
 
     def summary_rows(self, scene, series: dict, n_blocks: int) -> dict:
-        """Rows of the run summary: name -> (mean, standard error)."""
+        """Rows of the run summary: name -> (mean, standard error) as Python floats,
+        from `series` (per-step samples or block means; see `long_enough`)."""
         return {}
+
+
+def long_enough(series: dict, name: str, n_blocks: int) -> bool:
+    """Whether `series` holds `name` with at least `n_blocks` (≥ 2) samples: shorter
+    series give no summary row."""
+    return n_blocks >= 2 and name in series and np.shape(series[name])[0] >= n_blocks
+
+
+def steady_shear_rate(scene) -> float | None:
+    """γ̇ of a steady, nonzero shear flow (material functions exist), else None."""
+    flow = scene.flow
+    if flow is None or flow.kind != "shear" or flow.oscillation_frequency is not None:
+        return None
+    return flow.shear_rate or None
+
+
+def summary_row(estimate) -> tuple[float, float]:
+    """(mean, standard error) as Python floats."""
+    mean, error = estimate
+    return float(mean), float(error)

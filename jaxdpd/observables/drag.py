@@ -51,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.analysis.statistics import block_average, ratio_of_means
-from jaxdpd.observables.component import Observable
+from jaxdpd.observables.component import Observable, long_enough, summary_row
 from jaxdpd.validation import SceneError
 
 GIESEKUS_COMPONENTS = ("shear", "normal", "xx")
@@ -179,3 +179,18 @@ class Drag(Observable):
             return state, relative_velocity_samples(state.velocities, tagged_range)
 
         return sample
+
+    def summary_rows(self, scene, series, n_blocks):
+        """The tagged-particle drag coefficient "drag/zeta" (`tagged_drag`)."""
+        if not long_enough(series, "drag/relative_velocity", n_blocks):
+            return {}
+        force = scene.body_force
+        _, tagged = scene.species_range(force.species)
+        estimate = tagged_drag(
+            series["drag/relative_velocity"][:, 0],
+            force.amplitude,
+            tagged,
+            scene.n_particles,
+            n_blocks,
+        )
+        return {"drag/zeta": summary_row(estimate)}

@@ -13,7 +13,13 @@ term; v is the peculiar velocity in flow.)  Each part is reported separately.
 
 import numpy as np
 
-from jaxdpd.observables.component import Observable
+from jaxdpd.analysis.rheology import shear_rheology
+from jaxdpd.observables.component import (
+    Observable,
+    long_enough,
+    steady_shear_rate,
+    summary_row,
+)
 
 
 def kinetic_tensor(velocities, masses=None):
@@ -106,3 +112,11 @@ class Pressure(Observable):
 
     def reduce(self, samples, scene):
         return pressure_series(samples, scene)
+
+    def summary_rows(self, scene, series, n_blocks):
+        """Under steady shear: η, Ψ1, Ψ2 of the fluid, the polymer and each part."""
+        rate = steady_shear_rate(scene)
+        if rate is None or not long_enough(series, "pressure_tensor", n_blocks):
+            return {}
+        rheology = shear_rheology(series, rate, n_blocks)
+        return {name: summary_row(estimate) for name, estimate in rheology.items()}

@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxdpd.analysis.rheology import summary_rows
 from jaxdpd.analysis.running_averages import RunningBlockAverages
 from jaxdpd.analysis.temperature_check import temperature_warning
 from jaxdpd.engine.build import build
@@ -43,6 +42,7 @@ from jaxdpd.io.checkpoint import (
 from jaxdpd.io.errors import RunFileError
 from jaxdpd.io.h5md import H5MDWriter, box_edges
 from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
+from jaxdpd.observables import summary_rows
 from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
 from jaxdpd.observables.rdf import RadialDistribution
