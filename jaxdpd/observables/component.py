@@ -22,6 +22,10 @@ lists in `output.observables`.  It owns, as attributes and methods of one object
                      `initial_accumulators(context, bound_box, positions, image)`
     reduce(samples, scene)   host side, per chunk: the series it makes from the raw
                      samples it consumes
+    chunk_accumulator(simulation)   a host-side accumulator sampled at production
+                     chunk ends (g(r)), or None: `observe(state)`, `extras()` (arrays
+                     stored with a checkpoint) and `restore(extras)`, `write(writer)`
+                     (its averages into the H5MD file at the end) and `result()`
     units            series leaf name -> reduced unit of its H5MD elements
     summary_rows(scene, series, n_blocks)   name -> (mean, standard error) rows of
                      the run summary (jaxdpd.analysis.rheology.summary_rows)
@@ -115,6 +119,10 @@ class Observable:
     def initial_accumulators(self, context: BuildContext, bound_box, positions, image):
         """Empty on-device accumulators for one replica (only when `accumulates`)."""
         raise NotImplementedError(f"observable {self.name!r} keeps no accumulators")
+
+    def chunk_accumulator(self, simulation):
+        """A host-side accumulator sampled at chunk ends (module docstring), or None."""
+        return None
 
     def reduce(self, samples: dict, scene) -> dict:
         """Series made from the consumed raw samples (host side, NumPy)."""

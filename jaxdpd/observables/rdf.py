@@ -83,6 +83,24 @@ class RadialDistribution:
         self.counts += np.asarray(counts)
         self.samples += 1
 
+    def observe(self, state) -> None:
+        """Add the configuration of a SimState at a chunk end."""
+        self.sample(state.positions, state.box_state)
+
+    def extras(self) -> dict:
+        """The histogram, stored with a checkpoint."""
+        return {"rdf_counts": self.counts, "rdf_samples": np.asarray(self.samples)}
+
+    def restore(self, extras: dict) -> None:
+        """The histogram from a checkpoint's `extras`."""
+        self.counts = np.array(extras["rdf_counts"], np.int64)
+        self.samples = int(extras["rdf_samples"])
+
+    def write(self, writer) -> None:
+        """g(r) to /averages/rdf of an H5MDWriter (nothing before any sample)."""
+        if self.samples:
+            writer.write_rdf(*self.result(), self.samples)
+
     def result(self):
         """(shell centres r, g(r)) as NumPy arrays (NaN before any sample)."""
         edges = np.linspace(0.0, self.r_max, self.bins + 1)
@@ -103,6 +121,12 @@ class Rdf(Observable):
         Setting("rdf_bins", 100, minimum=1, integer=True),
         Setting("rdf_max", 3.0, minimum=0, exclusive_minimum=True),
     )
+
+    def chunk_accumulator(self, simulation):
+        output = simulation.scene.output
+        return RadialDistribution(
+            simulation.box, simulation.scene.n_particles, output.rdf_max, output.rdf_bins
+        )
 
     def check(self, scene):
         heights = make_box(scene.box.kind, scene.box.lengths, scene.flow).cell_heights
