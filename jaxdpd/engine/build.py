@@ -4,8 +4,9 @@ Nothing the scene does not ask for is traced: without a [pair] section there is 
 conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
 Γ = 0 no thermalisation, without an observable that needs it ("pressure") no
 virial, without [[polymers]] no bond kernel, without [body_force] no external force,
-with no pair term or thermostat at all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
-without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+with no pair term or thermostat at all no neighbour search, in a box at rest (no
+[flow]) no flow arithmetic, and without [spring_repulsion] or the "spring_pairs"
+observable no spring-pair list.
 With solvent.method = "lattice_boltzmann" the particles are beads coupled by
 friction to a lattice-Boltzmann fluid kept in SimState.solvent_state
 (jaxdpd.solvents.lattice_boltzmann); with its k_BT = 0 no noise is traced.  With an MPCD
