@@ -2,14 +2,17 @@
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
-Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
-kernel, without [body_force] no external force, with no pair term or thermostat at
-all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
-without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+Γ = 0 no thermalisation, without an observable that needs it ("pressure") no
+virial, without [[polymers]] no bond kernel, without [body_force] no external force,
+with no pair term or thermostat at all no neighbour search, in a box at rest (no
+[flow]) no flow arithmetic, and without [spring_repulsion] or the "spring_pairs"
+observable no spring-pair list.
 The solvent method's component (jaxdpd.solvents.SOLVENTS) adds its pair terms, the
 reach of a pair thermostat, the range of particles that feel forces (e.g. only the
 monomers of an MPCD solvent: the force kernel and its neighbour search cover them
 alone), its state beside the particles (SimState.solvent_state) and the step itself.
+After the solvent's step, each observable the scene lists samples the state
+(jaxdpd.observables.component), in registration order.
 
 The bond constants and the body-force amplitude are read from
 `SimState.parameters` (jaxdpd.engine.parameters): one compiled step serves every value.
@@ -49,17 +52,8 @@ from jaxdpd.geometry.neighbors.spring_pair_list import (
     spring_pair_shapes,
 )
 from jaxdpd.geometry.placement import initial_configuration
-from jaxdpd.observables.chain_correlators import (
-    init_chain_correlators,
-    sample_every,
-    update_chain_correlators,
-)
-from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
-from jaxdpd.observables.drag import relative_velocity_samples
-from jaxdpd.observables.profiles import profile_samples
-from jaxdpd.observables.spring_pairs import spring_pair_samples
-from jaxdpd.observables.thermo import step_samples
-from jaxdpd.observables.transverse_current import transverse_currents
+from jaxdpd.observables import scene_observables
+from jaxdpd.observables.component import BuildContext
 from jaxdpd.run.resources import check_resources
 from jaxdpd.scene import Scene
 from jaxdpd.solvents import StepContext
@@ -128,17 +122,6 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
-def species_range(scene: Scene, name: str) -> tuple[int, int]:
-    """(first index, count) of the particles of species `name` (stored species
-    after species)."""
-    first = 0
-    for species in scene.particles.species:
-        if species.name == name:
-            return first, species.count
-        first += species.count
-    raise ValueError(f"species {name!r}: not in the scene's species {scene.species_names}")
-
-
 def body_force_law(scene: Scene, dtype):
     """`force(positions, amplitude)` of the scene's [body_force], or None."""
     section = scene.body_force
@@ -146,7 +129,7 @@ def body_force_law(scene: Scene, dtype):
         return None
     if section.kind == "cosine":
         return cosine_body_force(section.waves, scene.box.lengths[1], dtype)
-    first, count = species_range(scene, section.species)
+    first, count = scene.species_range(section.species)
     return tagged_body_force(first, count, scene.n_particles, dtype)
 
 
@@ -285,7 +268,8 @@ def build(scene: Scene) -> Simulation:
     blocks = chain_blocks(scene)
     first, stop = solvent.force_range(scene, blocks)
     local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
-    with_virial = "pressure" in scene.output.observables
+    observables = scene_observables(scene)
+    with_virial = any(component.needs_virial for component in observables)
     masses = particle_masses(scene, dtype)
     bath_cutoff = solvent.bath_cutoff(scene)
     body_force = body_force_law(scene, dtype)
@@ -330,72 +314,16 @@ def build(scene: Scene) -> Simulation:
         StepContext(scene, box, interactions, masses, (first, stop), search, with_virial, dtype)
     )
 
-    observables = scene.output.observables
-    spring_pair_strengths = []  # (block, a of its species with itself)
-    if {"conformation", "pressure"} <= set(observables) and scene.pair is not None:
-        names = scene.species_names
-        spring_pair_strengths = [
-            (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
-            for block in blocks
-        ]
-    tagged_range = None
-    if "drag" in observables:
-        tagged_range = species_range(scene, scene.body_force.species)
+    context = BuildContext(scene, box, blocks, masses, dtype, spring_search)
+    samplers = [s for s in (c.sampler(context) for c in observables) if s is not None]
+    accumulating = [c for c in observables if c.accumulates]
 
     def step_fn(previous):
         state = advance(previous)
-        samples = step_samples(observables, state, masses)
-        bound_box = box.bind(state.box_state)
-        if "conformation" in observables:
-            samples.update(
-                conformation_samples(
-                    bound_box, state.positions, blocks, state.parameters, state.image
-                )
-            )
-            for block, strength in spring_pair_strengths:
-                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
-                    bound_box,
-                    state.positions,
-                    block,
-                    strength,
-                    scene.cutoff,
-                    scene.volume,
-                    state.image,
-                )
-        if "drag" in observables:
-            samples.update(relative_velocity_samples(state.velocities, tagged_range))
-        if "profile" in observables:
-            samples.update(
-                profile_samples(
-                    bound_box, state.positions, state.velocities, masses, scene.output.profile_bins
-                )
-            )
-        if "transverse_current" in observables:
-            samples["transverse_current"] = transverse_currents(
-                state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
-            )
-        if "dynamics" in observables:
-            observers = sample_every(
-                state.step,
-                scene.output.correlator_every,
-                state.observers,
-                lambda c: update_chain_correlators(
-                    c, bound_box, state.positions, state.image, blocks
-                ),
-            )
-            state = state.set(observers=observers)
-        if "spring_pairs" in observables:
-            # The same list slots at both ends of the step: crossings are reversals.
-            before = spring_search.measure(
-                previous.positions, state.spring_pairs, previous.box_state
-            )
-            after = spring_search.measure(state.positions, state.spring_pairs, state.box_state)
-            output = scene.output
-            samples.update(
-                spring_pair_samples(
-                    before, after, output.spring_pair_max, output.spring_pair_bins, dtype
-                )
-            )
+        samples = {}
+        for sample in samplers:
+            state, taken = sample(previous, state)
+            samples.update(taken)
         return state, samples
 
     def init_observers(state):
@@ -405,7 +333,7 @@ def build(scene: Scene) -> Simulation:
         jaxdpd.run.ensemble; a batch gets B copies of one replica's empty accumulators
         (they depend only on the shapes), stacked on a leading axis.
         """
-        if "dynamics" not in observables:
+        if not accumulating:
             return state
         batch_shape = state.positions.shape[:-2]
         if len(batch_shape) > 1:
@@ -417,9 +345,8 @@ def build(scene: Scene) -> Simulation:
         if batch_shape:
             positions, image = positions[0], image[0]
             box_state = jax.tree.map(lambda leaf: leaf[0], box_state)
-        observers = init_chain_correlators(
-            box.bind(box_state), positions, image, blocks, scene.output.correlator_levels
-        )
+        (component,) = accumulating  # one per scene (jaxdpd.scene checks)
+        observers = component.initial_accumulators(context, box.bind(box_state), positions, image)
         return state.set(
             observers=jax.tree.map(
                 lambda leaf: jnp.broadcast_to(leaf, batch_shape + leaf.shape), observers

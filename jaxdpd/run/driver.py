@@ -26,7 +26,7 @@ import jax
 import numpy as np
 
 from jaxdpd.engine import errors
-from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.observables import reduce_samples
 from jaxdpd.run import ensemble
 
 MAX_REALLOCATIONS = 8
@@ -221,9 +221,7 @@ def run(
             if on_error is not None:
                 on_error(state, error)
             raise
-        series = reduce_samples(
-            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
-        )
+        series = reduce_samples(samples, scene)
         if on_chunk is not None:
             on_chunk(ChunkResult(new_state, first_step(state), length, series))
         state = new_state
