@@ -104,6 +104,7 @@ from jaxdpd.solvents import SOLVENTS, SolventMethod, SolventParameters
 from jaxdpd.validation import (
     REQUIRED,
     SceneError,
+    as_scene_error,
     check_keys,
     read_choice,
     read_list,
@@ -347,7 +348,21 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: dict) -> "Scene":
-        """Validate a scene dictionary; errors name the field and the valid range."""
+        """Validate a scene dictionary.
+
+        Raises:
+            SceneError: a ValueError (SceneTypeError: also a TypeError) whose message
+                names the field and the valid range, and whose `field` is the field's
+                dotted path, whichever component's reader or check refused it.
+        """
+        try:
+            return cls._assemble(data)
+        except (ValueError, TypeError) as error:
+            raise as_scene_error(error) from None
+
+    @classmethod
+    def _assemble(cls, data: dict) -> "Scene":
+        """Read every section and run the checks across them (see from_dict)."""
         check_keys(
             data,
             (
