@@ -5,6 +5,9 @@ name `output.observables` lists, in the order a step samples them and a chunk's
 series are made.  A new observable is one module plus one `register` line here.
 """
 
+import jax
+import jax.numpy as jnp
+
 from jaxdpd.engine.registry import Registry
 from jaxdpd.observables.chain_correlators import Dynamics
 from jaxdpd.observables.chain_series import Conformation
@@ -65,3 +68,35 @@ def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
     for component in OBSERVABLES:
         rows.update(component.summary_rows(scene, series, n_blocks))
     return rows
+
+
+def initial_observers(components, context, state):
+    """`state` with empty on-device accumulators of the accumulating component among
+    `components` (at most one per scene; jaxdpd.scene checks), e.g. to discard the
+    equilibration.
+
+    `state` is one replica (positions (N, 3)) or a batch (B, N, 3) from
+    jaxdpd.run.ensemble; a batch gets B copies of one replica's empty accumulators
+    (they depend only on the shapes), stacked on a leading axis.
+    """
+    accumulating = [component for component in components if component.accumulates]
+    if not accumulating:
+        return state
+    batch_shape = state.positions.shape[:-2]
+    if len(batch_shape) > 1:
+        raise ValueError(
+            f"init_observers: state.positions must be (N, 3) or (B, N, 3), "
+            f"got shape {state.positions.shape}"
+        )
+    positions, image, box_state = state.positions, state.image, state.box_state
+    if batch_shape:
+        positions, image = positions[0], image[0]
+        box_state = jax.tree.map(lambda leaf: leaf[0], box_state)
+    (component,) = accumulating
+    bound_box = context.box.bind(box_state)
+    observers = component.initial_accumulators(context, bound_box, positions, image)
+    return state.set(
+        observers=jax.tree.map(
+            lambda leaf: jnp.broadcast_to(leaf, batch_shape + leaf.shape), observers
+        )
+    )
