@@ -28,7 +28,7 @@ from _common import peak_rss_mib, print_table, timed, write_json
 
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine.build import build
-from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.observables import reduce_samples
 from jaxdpd.run import driver
 from jaxdpd.scene import Scene
 
@@ -90,7 +90,7 @@ class JaxdpdFluid:
         (self.state, samples), seconds = timed(self.compiled, self.state)
         if int(self.state.flags):
             raise RuntimeError(f"jaxdpd run flagged errors {int(self.state.flags)}")
-        series = reduce_samples(jax.tree.map(np.asarray, samples), self.n, self.scene.volume)
+        series = reduce_samples(jax.tree.map(np.asarray, samples), self.scene)
         return seconds, {key: series[key] for key in ("temperature", "pressure")}
 
 

@@ -29,7 +29,7 @@ from _common import write_json
 from jaxdpd.analysis.statistics import block_average, inverse_variance_mean
 from jaxdpd.engine.build import build
 from jaxdpd.geometry import flows
-from jaxdpd.run import ensemble
+from jaxdpd.run import driver, ensemble
 from jaxdpd.scene import Scene
 
 TOTAL = "pressure_tensor"
@@ -55,7 +55,7 @@ def stress_series(scene: Scene, seeds, rates, steps: int) -> dict:
     simulation = build(scene)
     kind = scene.flow.kind
     batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=seeds)
-    batch = ensemble.run(simulation, batch, 250, 250)
+    batch = driver.run(simulation, batch, 250, 250)
     batch = flows.set_flow_rate(batch, kind, jnp.asarray(rates))
     parts = {}
 
@@ -64,7 +64,7 @@ def stress_series(scene: Scene, seeds, rates, steps: int) -> dict:
             if name.startswith(TOTAL):
                 parts.setdefault(name, []).append(np.asarray(values, np.float64))
 
-    ensemble.run(simulation, batch, steps, 500, on_chunk=keep)
+    driver.run(simulation, batch, steps, 500, on_chunk=keep)
     return {name: np.concatenate(chunks, axis=1) for name, chunks in parts.items()}
 
 

@@ -58,13 +58,13 @@ def measure(simulation, start, replicas: int, steps: int, chunk: int) -> dict:
     # program was compiled for; cause not found): run one chunk of it, untimed.
     timed(driver.run, simulation, singles[0], chunk, chunk)
     # Compilation of this batch shape: its first chunk minus a compiled chunk.
-    _, first_sweep = timed(ensemble.run, simulation, batch, chunk, chunk)
-    _, again_sweep = timed(ensemble.run, simulation, batch, chunk, chunk)
+    _, first_sweep = timed(driver.run, simulation, batch, chunk, chunk)
+    _, again_sweep = timed(driver.run, simulation, batch, chunk, chunk)
     singles_seconds = 0.0
     for state in singles:
         _, seconds = timed(driver.run, simulation, state, steps, chunk)
         singles_seconds += seconds
-    _, sweep_seconds = timed(ensemble.run, simulation, batch, steps, chunk)
+    _, sweep_seconds = timed(driver.run, simulation, batch, steps, chunk)
     particle_steps = replicas * simulation.scene.n_particles * steps
     return {
         "B": replicas,

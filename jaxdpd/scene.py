@@ -99,10 +99,12 @@ from jaxdpd.forces.bonds import read_bond
 from jaxdpd.forces.pair_laws import PAIR_LAWS, Pair, read_pair
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
 from jaxdpd.geometry.boxes import BOXES, box_for_flow, make_box
+from jaxdpd.observables import OBSERVABLES
 from jaxdpd.solvents import SOLVENTS, SolventMethod, SolventParameters
 from jaxdpd.validation import (
     REQUIRED,
     SceneError,
+    as_scene_error,
     check_keys,
     read_choice,
     read_list,
@@ -121,19 +123,7 @@ FLOW_FIELDS = {
     "shear": ("shear_rate", "oscillation_frequency"),
     "planar_elongation": ("elongation_rate", "kraynik_reinelt_case"),
 }
-OBSERVABLES = (
-    "temperature",
-    "pressure",
-    "rdf",
-    "conformation",
-    "dynamics",
-    "profile",
-    "transverse_current",
-    "drag",
-    "spring_pairs",
-)
 BODY_FORCE_KINDS = ("cosine", "tagged")
-POLYMER_OBSERVABLES = ("conformation", "dynamics", "spring_pairs")
 MAX_PARTICLES = 2**31 - 1  # particle indices are int32
 
 
@@ -277,21 +267,39 @@ class Run:
 
 @dataclass(frozen=True)
 class Output:
-    """What is measured and where it is written."""
+    """What is measured and where it is written.
+
+    `settings` holds the [output] fields the registered observables own
+    (jaxdpd.observables.component.Setting), as (name, value) pairs; each reads as an
+    attribute (`output.rdf_bins`).
+    """
 
     path: str | None = None
     observables: tuple[str, ...] = ("temperature", "pressure")
-    rdf_bins: int = 100
-    current_modes: int = 3
-    rdf_max: float = 3.0
     trajectory_every: int = 0
     checkpoint_every: int = 0
     checkpoint_seconds: float = 300.0
-    correlator_every: int = 10
-    correlator_levels: int = 12
-    profile_bins: int = 20
-    spring_pair_bins: int = 50
-    spring_pair_max: float = 1.0 / 3.0  # from_dict's default: cutoff / 3
+    settings: tuple[tuple[str, object], ...] = ()
+
+    def __getattr__(self, name: str):
+        for key, value in self.__dict__.get("settings", ()):
+            if key == name:
+                return value
+        raise AttributeError(f"Output has no field or observable setting {name!r}")
+
+    def to_dict(self) -> dict:
+        """The section as plain data, the observables' settings among its fields."""
+        data = {
+            "path": self.path,
+            "observables": list(self.observables),
+            "trajectory_every": self.trajectory_every,
+            "checkpoint_every": self.checkpoint_every,
+            "checkpoint_seconds": self.checkpoint_seconds,
+            **dict(self.settings),
+        }
+        if self.path is None:
+            del data["path"]
+        return data
 
 
 @dataclass(frozen=True)
@@ -340,7 +348,21 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: dict) -> "Scene":
-        """Validate a scene dictionary; errors name the field and the valid range."""
+        """Validate a scene dictionary.
+
+        Raises:
+            SceneError: a ValueError (SceneTypeError: also a TypeError) whose message
+                names the field and the valid range, and whose `field` is the field's
+                dotted path, whichever component's reader or check refused it.
+        """
+        try:
+            return cls._assemble(data)
+        except (ValueError, TypeError) as error:
+            raise as_scene_error(error) from None
+
+    @classmethod
+    def _assemble(cls, data: dict) -> "Scene":
+        """Read every section and run the checks across them (see from_dict)."""
         check_keys(
             data,
             (
@@ -409,12 +431,7 @@ class Scene:
         integrator = _read_integrator(data.get("integrator"), method, solvent)
         polymers = _read_polymers(polymer_entries, particles.species)
         run = _read_run(data.get("run", {}))
-        output = _read_output(data.get("output", {}), heights, run.chunk, method, cutoff)
-        if "transverse_current" in output.observables and len(set(lengths)) != 1:
-            raise ValueError(
-                f"output.observables: 'transverse_current' averages the six transverse pairs "
-                f"of a cubic box; box.lengths = {list(lengths)} is not cubic"
-            )
+        output = _read_output(data.get("output", {}), run.chunk, method, cutoff)
         spring_repulsion = _read_spring_repulsion(data.get("spring_repulsion"), polymers, cutoff)
         _check_spring_reach(spring_repulsion, output, neighbors, heights)
         # Springs must stay shorter than half the box where they are read by minimum
@@ -433,26 +450,9 @@ class Scene:
                 else (min(lengths), "the shortest box edge", "thesis §3.2.3")
             )
             _check_spring_room(polymers, spring_room)
-        if _kind(flow) == "planar_elongation" and "dynamics" in output.observables:
-            raise ValueError(
-                "output.observables: 'dynamics' (mean-square displacements) needs a box at "
-                "rest or in shear (Kraynik–Reinelt positions cannot be unwrapped); under "
-                "elongation, measure the chains with 'conformation'"
-            )
         if data.get("body_force") is not None and not method.body_forces:
             _refuse_section("body_force", method, "body_forces")
         body_force = _read_body_force(data.get("body_force"), particles)
-        if "drag" in output.observables and _kind(body_force) != "tagged":
-            raise ValueError(
-                "output.observables: 'drag' measures the drift of tagged particles; add "
-                "[body_force] kind = 'tagged' with their species, or remove it"
-            )
-        for name in POLYMER_OBSERVABLES:
-            if name in output.observables and not polymers:
-                raise ValueError(
-                    f"output.observables: {name!r} measures polymers; add a [[polymers]] "
-                    "section or remove it"
-                )
         scene = cls(
             seed=seed,
             precision=precision,
@@ -471,6 +471,7 @@ class Scene:
             output=output,
         )
         method.check(scene)
+        _check_observables(scene)
         return scene
 
     # -- derived quantities --------------------------------------------------------
@@ -513,6 +514,16 @@ class Scene:
         exchange momentum with a lattice-Boltzmann fluid): 3N − 3 or 3N kinetic
         degrees of freedom."""
         return self.solvent_component.conserves_particle_momentum
+
+    def species_range(self, name: str) -> tuple[int, int]:
+        """(first index, count) of the particles of species `name` (stored species
+        after species)."""
+        first = 0
+        for species in self.particles.species:
+            if species.name == name:
+                return first, species.count
+            first += species.count
+        raise ValueError(f"species {name!r}: not in the scene's species {self.species_names}")
 
     @property
     def species_names(self) -> tuple[str, ...]:
@@ -568,9 +579,7 @@ class Scene:
             del data["neighbors"]["format"]
         if self.neighbors.method == "all_pairs":
             del data["neighbors"]["skin"]
-        data["output"]["observables"] = list(self.output.observables)
-        if self.output.path is None:
-            del data["output"]["path"]
+        data["output"] = self.output.to_dict()
         return data
 
     def to_json(self) -> str:
@@ -890,23 +899,17 @@ def _read_run(section) -> Run:
     )
 
 
-def _read_output(section, heights, chunk: int, method: SolventMethod, cutoff: float) -> Output:
+def _read_output(section, chunk: int, method: SolventMethod, cutoff: float) -> Output:
+    settings = [setting for component in OBSERVABLES for setting in component.settings]
     check_keys(
         section,
         (
             "path",
             "observables",
-            "rdf_bins",
-            "rdf_max",
             "trajectory_every",
             "checkpoint_every",
             "checkpoint_seconds",
-            "correlator_every",
-            "correlator_levels",
-            "profile_bins",
-            "current_modes",
-            "spring_pair_bins",
-            "spring_pair_max",
+            *(setting.name for setting in settings),
         ),
         "output",
     )
@@ -917,9 +920,7 @@ def _read_output(section, heights, chunk: int, method: SolventMethod, cutoff: fl
         if name in observables:
             raise ValueError(f"output.observables: {name!r} {reason}; remove it")
     for name in observables:
-        if name not in OBSERVABLES:
-            raise ValueError(f"output.observables: unknown {name!r}; valid: {list(OBSERVABLES)}")
-    rdf_max = read_number(section, "rdf_max", "output", 3.0, minimum=0, exclusive_minimum=True)
+        OBSERVABLES.get(name)
     every = {}
     for key, what in (("trajectory_every", "frames"), ("checkpoint_every", "checkpoints")):
         every[key] = read_number(section, key, "output", 0, minimum=0, integer=True)
@@ -928,33 +929,34 @@ def _read_output(section, heights, chunk: int, method: SolventMethod, cutoff: fl
                 f"output.{key} = {every[key]}: {what} are written at chunk ends, so it "
                 f"must be a multiple of run.chunk = {chunk} (or 0 for none)"
             )
-    if "rdf" in observables and not rdf_max < min(heights) / 2:
-        raise ValueError(
-            f"output.rdf_max = {rdf_max}: must be < half the box's thinnest extent "
-            f"({min(heights) / 2:.4g}; the shortest edge, or a sheared box's tilted height)"
-        )
     return Output(
         path=read_string(section, "path", "output", None),
-        current_modes=read_number(section, "current_modes", "output", 3, minimum=1, integer=True),
         observables=tuple(dict.fromkeys(observables)),
-        rdf_bins=read_number(section, "rdf_bins", "output", 100, minimum=1, integer=True),
-        rdf_max=rdf_max,
         **every,
         checkpoint_seconds=read_number(section, "checkpoint_seconds", "output", 300.0, minimum=0),
-        correlator_every=read_number(
-            section, "correlator_every", "output", 10, minimum=1, integer=True
-        ),
-        correlator_levels=read_number(
-            section, "correlator_levels", "output", 12, minimum=1, maximum=30, integer=True
-        ),
-        profile_bins=read_number(section, "profile_bins", "output", 20, minimum=1, integer=True),
-        spring_pair_bins=read_number(
-            section, "spring_pair_bins", "output", 50, minimum=1, integer=True
-        ),
-        spring_pair_max=read_number(
-            section, "spring_pair_max", "output", cutoff / 3, minimum=0, exclusive_minimum=True
-        ),
+        settings=tuple((setting.name, setting.read(section, cutoff)) for setting in settings),
     )
+
+
+def _check_observables(scene: Scene) -> None:
+    """Each listed observable's requirements (jaxdpd.observables.component)."""
+    accumulating = []
+    for name in scene.output.observables:
+        component = OBSERVABLES.get(name)
+        if component.needs_polymers and not scene.polymers:
+            raise SceneError(
+                "output.observables",
+                f"{name!r} measures polymers; add a [[polymers]] section or remove it",
+            )
+        component.check(scene)
+        if component.accumulates:
+            accumulating.append(name)
+    if len(accumulating) > 1:
+        raise SceneError(
+            "output.observables",
+            f"{accumulating} each keep on-device accumulators (SimState.observers holds "
+            "one observable's); list one of them per run",
+        )
 
 
 SPRING_REPULSION_PARAMETERS = {

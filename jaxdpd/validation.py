@@ -7,6 +7,7 @@ a value out of range or a missing or unknown key, and a `SceneTypeError` (both a
 """
 
 import math
+import re
 
 _MISSING = object()
 
@@ -24,6 +25,25 @@ class SceneError(ValueError):
 
 class SceneTypeError(SceneError, TypeError):
     """A scene field holds a value of the wrong type (a table where a number belongs)."""
+
+
+# The field path a scene message starts with: "polymers[0].bond.law", "output".
+_LEADING_FIELD = re.compile(
+    r"([A-Za-z_]\w*(?:\[\d+\])?(?:\.[A-Za-z_]\w*(?:\[\d+\])?)*)(?=:| =| has )"
+)
+
+
+def as_scene_error(error: Exception) -> Exception:
+    """`error` (a ValueError or TypeError raised while reading a scene, whose message
+    starts with the field it is about, as every scene check's does) as the matching
+    SceneError carrying that field; unchanged when it names no field."""
+    match = _LEADING_FIELD.match(str(error))
+    if isinstance(error, SceneError) or match is None:
+        return error
+    kind = SceneTypeError if isinstance(error, TypeError) else SceneError
+    converted = kind(match.group(1), "")
+    converted.args = error.args
+    return converted
 
 
 INT32_MAX = 2**31 - 1

@@ -20,9 +20,10 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from jaxdpd.io import read_checkpoint, read_observables, read_state, read_trajectory
+from jaxdpd.io import read_checkpoint, read_observables, read_trajectory
 from jaxdpd.io.checkpoint import checkpoint_path
 from jaxdpd.io.reader import open_run_file
+from jaxdpd.run.restore import restore
 from jaxdpd.run.runner import simulate
 from jaxdpd.scene import Scene
 
@@ -124,7 +125,7 @@ def reference_run() -> ReferenceRun:
 
 def assert_same_run(path, reference) -> None:
     """The run in `path` ended exactly as the uninterrupted `reference` run."""
-    assert_same_leaves(read_state(path), reference.summary.state)
+    assert_same_leaves(restore(path)[1], reference.summary.state)
     ours, theirs = read_observables(path), read_observables(reference.path)
     assert ours.keys() == theirs.keys()
     for name in theirs:

@@ -167,7 +167,7 @@ def test_batch_observers_after_a_vmapped_chunk_equal_the_replicas_run_alone(run)
     chain_correlations (about 40 s on 2 loaded cores: two more compilations)."""
     simulation, start, _, _, _ = run
     batch = simulation.init_observers(ensemble.replicate(simulation, start, seeds=SEEDS))
-    batch, _ = ensemble.run_chunk(simulation, batch, EVERY)
+    batch, _, _ = driver.run_chunk(simulation, batch, EVERY)
     interval = EVERY * simulation.scene.integrator.dt
     merged = chain_correlations(batch.observers, interval)
     for k, (seed, replica) in enumerate(zip(SEEDS, ensemble.unstack(batch), strict=True)):

@@ -171,7 +171,7 @@ def test_replicas_read_their_own_parameters_and_conserve_momentum():
     first = {"bond": {"dumbbell": {"spring_constant": 3.0}}, "body_force": {"amplitude": 1.0}}
     other = {"bond": {"dumbbell": {"spring_constant": 2.0}}, "body_force": {"amplitude": 3.0}}
     states = [with_parameters(start, values) for values in (first, other, first)]
-    batch = ensemble.run(simulation, ensemble.replicate(simulation, states, seeds=[5] * 3), 40, 20)
+    batch = driver.run(simulation, ensemble.replicate(simulation, states, seeds=[5] * 3), 40, 20)
     positions = np.asarray(batch.positions)
     np.testing.assert_array_equal(positions[2], positions[0])
     assert np.abs(positions[1] - positions[0]).max() > 1e-3
@@ -226,7 +226,7 @@ def test_fluctuation_derivative_equals_central_finite_difference(fit_setup):
         for h in values
     ]
     batch = ensemble.replicate(simulation, states, seeds=[31] * 3)
-    batch = ensemble.run(sensitivity, batch, 1000, 500)
+    batch = driver.run(sensitivity, batch, 1000, 500)
     _, result = measure_sensitivity(sensitivity, batch, 8000, 500, kT=1.0, n_springs=106)
     step = 2 * delta * FIT_SPRING_CONSTANT
     difference = (result.value[2] - result.value[0]) / step

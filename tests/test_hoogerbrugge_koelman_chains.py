@@ -14,7 +14,7 @@ from jaxdpd.analysis.statistics import ratio_of_means
 from jaxdpd.engine import errors
 from jaxdpd.engine.build import build
 from jaxdpd.engine.errors import SimulationError
-from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.observables import reduce_samples
 from jaxdpd.run import driver
 from jaxdpd.run.runner import simulate
 from jaxdpd.scene import Scene
@@ -115,7 +115,7 @@ def run_series(scene, steps, equilibration):
     simulation = build(scene)
     state = driver.run(simulation, simulation.init_fn(), equilibration, equilibration)
     state, samples, _ = driver.run_chunk(simulation, state, steps)
-    return state, reduce_samples(samples, scene.n_particles, scene.volume)
+    return state, reduce_samples(samples, scene)
 
 
 def test_dumbbells_near_equipartition_at_the_measured_temperature():

@@ -1,11 +1,15 @@
 """H5MD output layout, the scene stored in it, and the command line."""
 
+import os
 import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import h5py
 import numpy as np
 from io_runs import (
-    assert_same_leaves,
     lees_edwards_edges,
     polymer_reference_run,
     reference_run,
@@ -81,16 +85,64 @@ def test_polymer_runs_store_bonds_and_run_averages():
     assert "dumbbell/D_CM" in reference.summary.averages
 
 
-def test_load_gives_back_scene_state_and_every_observable():
+def test_load_gives_back_scene_checkpoint_and_every_observable():
     reference = reference_run()
     record = load(reference.path)
     assert record.scene == reference.scene
-    assert_same_leaves(record.state, reference.summary.state)
     assert (record.checkpoint.step, record.checkpoint.phase) == (2400, "production")
     parts = [f"pressure_tensor_part/{p}" for p in ("kinetic", "conservative", "dissipative")]
     expected = ["temperature", *parts, "pressure_tensor_part/random", "pressure_tensor"]
     assert list(record.observables) == [*expected, "pressure"]  # in the order written
     assert record.observables["pressure_tensor"].value.shape == (2400, 3, 3)
+
+
+READ_WITHOUT_THE_ENGINE = textwrap.dedent(
+    """
+    import sys
+    import jax
+    compiled = []
+    jax.monitoring.register_event_duration_secs_listener(
+        lambda name, *_, **__: compiled.append(name) if "/compile/" in name else None
+    )
+    import jaxdpd.io
+    engine = sorted(m for m in sys.modules if m.startswith("jaxdpd.engine"))
+    assert not engine, f"import jaxdpd.io imported {engine}"
+    path = sys.argv[1]
+    assert jaxdpd.io.read_observables(path)
+    jaxdpd.io.read_trajectory(path)
+    jaxdpd.io.read_checkpoint(path)
+    assert not compiled, f"reading the series compiled: {compiled}"
+    # The scene's geometry imports jax_md, whose own import runs (and compiles) a few
+    # jnp operations; reading the scene must add nothing to them.
+    import jax_md
+    compiled.clear()
+    record = jaxdpd.io.load(path)
+    assert record.checkpoint is not None and record.observables
+    assert "jaxdpd.engine.build" not in sys.modules, "reading built a simulation"
+    assert not compiled, f"reading the scene compiled: {compiled}"
+    """
+)
+
+
+def test_reading_a_file_neither_imports_the_engine_nor_compiles_anything():
+    """A fresh process: `import jaxdpd.io` imports no jaxdpd.engine module; reading a
+    file's observables, frames and raw checkpoint compiles nothing (JAX reports no
+    compilation event), and loading its scene neither imports the simulation builder
+    nor compiles anything beyond what importing jax_md does by itself."""
+    path = reference_run().path
+    root = str(Path(__file__).parent.parent)
+    environment = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]),
+    }
+    result = subprocess.run(
+        [sys.executable, "-c", READ_WITHOUT_THE_ENGINE, str(path)],
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
 
 
 def test_streamed_block_averages_equal_those_of_the_stored_series():

@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 from io_runs import SCENE_TOML, copy_run, reference_run
 
-from jaxdpd.io import RunFileError, load, read_checkpoint, read_scene, read_state, write_tree
+from jaxdpd.io import RunFileError, load, read_checkpoint, read_scene, write_tree
 from jaxdpd.io.checkpoint import checkpoint_path
 from jaxdpd.run.cli import main
+from jaxdpd.run.restore import restore
 
 
 def _flip_byte(path, offset: int) -> None:
@@ -174,7 +175,7 @@ READERS = {
     "truncated": read_scene,
     "scene invalid": read_scene,
     "scene digit changed": read_scene,
-    "leaf damaged": read_state,
+    "leaf damaged": restore,
     "checkpoint header edited": read_checkpoint,
     "another run's checkpoint": load,
 }

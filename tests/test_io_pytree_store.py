@@ -18,7 +18,15 @@ from io_runs import assert_same_leaves, reference_run
 from jax_md import dataclasses as jmd_dataclasses
 
 from jaxdpd.engine.build import build
-from jaxdpd.io import RunFileError, read_checkpoint, read_state, read_tree, write_tree
+from jaxdpd.io import (
+    RunFileError,
+    read_checkpoint,
+    read_scene,
+    read_state,
+    read_tree,
+    write_tree,
+)
+from jaxdpd.run.restore import restore
 
 
 class Lattice(enum.Enum):
@@ -136,10 +144,13 @@ def test_a_damaged_leaf_fails_its_checksum(tmp_path):
 
 def test_a_checkpointed_simstate_restores_through_the_scenes_build():
     """The reference run's end-of-run checkpoint, loaded back by read_state (template
-    from build(scene).init_fn()), equals the final state the run returned; the raw
-    reader gives the same leaves by path without a scene."""
+    from build(scene).init_fn()), equals the final state the run returned, as does
+    jaxdpd.run.restore's; the raw reader gives the same leaves by path without a scene."""
     reference = reference_run()
-    state = read_state(reference.path)
+    template = build(read_scene(reference.path)).init_fn()
+    state = read_state(reference.path, template)
+    assert_same_leaves(state, reference.summary.state)
+    _, state = restore(reference.path)
     assert_same_leaves(state, reference.summary.state)
     raw = read_checkpoint(reference.path)
     np.testing.assert_array_equal(raw["pair_list/i"], reference.summary.state.pair_list.i)

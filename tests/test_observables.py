@@ -2,11 +2,16 @@
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from conftest import make_scene
 
 from jaxdpd.engine import noise
 from jaxdpd.engine.build import build
+from jaxdpd.io.layout import reduced_unit
+from jaxdpd.observables import OBSERVABLES, reduce_samples
+from jaxdpd.observables.component import Observable, Setting
 from jaxdpd.run.runner import simulate
+from jaxdpd.validation import SceneError
 
 
 def brute_force_dpd(positions, velocities, lengths, a, gamma, kT, dt, seed, step):
@@ -113,3 +118,48 @@ def test_ideal_gas_rdf_is_one_and_pressure_is_rho_kT():
         scene.particles.density * summary.series["temperature"] * (n - 1) / n,
         rtol=1e-12,
     )
+
+
+class ToyMomentum(Observable):
+    """A toy observable: the scaled total momentum, with one [output] setting."""
+
+    name = "toy_momentum"
+    settings = (Setting("toy_scale", 2.0, minimum=0),)
+    units = {"toy_momentum": "r_c/τ"}
+
+    def sampler(self, context):
+        scale = context.scene.output.toy_scale
+
+        def sample(previous, state):
+            return state, {"toy_momentum": scale * state.velocities.sum(axis=0)}
+
+        return sample
+
+
+def test_a_toy_observable_is_one_class_and_one_register_line():
+    """Registering an observable gives it its [output] setting, its sample in the step
+    (after the built-in ones, which are unchanged), its series and its unit."""
+    OBSERVABLES.register(ToyMomentum())
+    try:
+        scene = make_scene(output={"observables": ["temperature", "toy_momentum"], "toy_scale": 3})
+        assert scene.output.toy_scale == 3
+        assert scene.to_dict()["output"]["toy_scale"] == 3
+        simulation = build(scene)
+        state = simulation.init_fn()
+        _, samples = simulation.step_fn(state)
+        assert set(samples) == {"kinetic", "toy_momentum"}
+        series = reduce_samples({name: value[None] for name, value in samples.items()}, scene)
+        assert list(series) == ["toy_momentum", "temperature"]
+        assert reduced_unit("observables/toy_momentum") == "r_c/τ"
+    finally:
+        OBSERVABLES.unregister("toy_momentum")
+    with pytest.raises(SceneError, match="output.observables: 'toy_momentum'"):
+        make_scene(output={"observables": ["toy_momentum"]})
+
+
+def test_every_observable_names_its_needs():
+    """An observable that measures polymers is refused without them, naming the field."""
+    for component in OBSERVABLES:
+        if component.needs_polymers:
+            with pytest.raises(SceneError, match=f"output.observables: '{component.name}'"):
+                make_scene(output={"observables": [component.name]})

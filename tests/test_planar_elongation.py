@@ -31,7 +31,7 @@ from jaxdpd.analysis.green_kubo import shear_viscosity
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine.build import build
 from jaxdpd.geometry import flows
-from jaxdpd.run import ensemble
+from jaxdpd.run import driver, ensemble
 from jaxdpd.scene import Scene
 
 SMALL = [4.0, 3.0, 4.0]  # N = 144 at ρ = 3; stable below ε̇ ≈ 1.27
@@ -77,7 +77,7 @@ def elongated_batch():
     periods = PERIODS * simulation.box.period / (RATES[-1] * scene.integrator.dt)
     steps = int(np.ceil(periods / CHUNK)) * CHUNK
     batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=[1, 2, 3])
-    batch = ensemble.run(simulation, batch, 250, CHUNK)
+    batch = driver.run(simulation, batch, 250, CHUNK)
     batch = flows.set_flow_rate(batch, "planar_elongation", jnp.asarray(RATES))
     parts, states = {}, []
 
@@ -86,7 +86,7 @@ def elongated_batch():
         for name, values in result.series.items():
             parts.setdefault(name, []).append(np.asarray(values, np.float64))
 
-    final = ensemble.run(simulation, batch, steps, CHUNK, on_chunk=keep)
+    final = driver.run(simulation, batch, steps, CHUNK, on_chunk=keep)
     series = {name: np.concatenate(v, axis=1) for name, v in parts.items()}
     return simulation, final, series, states, steps
 

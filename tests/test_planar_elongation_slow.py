@@ -21,7 +21,7 @@ from jaxdpd.analysis.elongation import elongational_material_functions
 from jaxdpd.analysis.statistics import inverse_variance_mean
 from jaxdpd.engine.build import build
 from jaxdpd.geometry import flows
-from jaxdpd.run import ensemble
+from jaxdpd.run import driver, ensemble
 from jaxdpd.scene import Scene
 from jaxdpd.studies import relaxation
 
@@ -42,8 +42,8 @@ def shear_material_functions(replicas):
     batch = ensemble.replicate(
         sheared, sheared.init_fn(), seeds=seeds, shear_rates=[SHEAR_RATE] * replicas
     )
-    batch = ensemble.run(sheared, batch, 250, 250)
-    _, shear = collect_series(sheared, batch, STEPS, 500, run=ensemble.run)
+    batch = driver.run(sheared, batch, 250, 250)
+    _, shear = collect_series(sheared, batch, STEPS, 500)
     tensor = shear["pressure_tensor"]
     viscosity = -tensor[..., 0, 1] / SHEAR_RATE
     normal = (tensor[..., 2, 2] - (tensor[..., 0, 0] + tensor[..., 1, 1]) / 2) / SHEAR_RATE**2
@@ -83,9 +83,9 @@ def test_elongational_viscosities_against_the_lees_edwards_material_functions():
     rates = [0.1] * 4 + [0.2] * 4
     simulation = build(elongation_scene([8.0, 4.0, 8.0], 0.0))
     batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=list(range(1, 9)))
-    batch = ensemble.run(simulation, batch, 250, 250)
+    batch = driver.run(simulation, batch, 250, 250)
     batch = flows.set_flow_rate(batch, "planar_elongation", jnp.asarray(rates))
-    _, series = collect_series(simulation, batch, STEPS, 500, run=ensemble.run)
+    _, series = collect_series(simulation, batch, STEPS, 500)
     functions = elongational_material_functions(series, np.asarray(rates), axis=1)
 
     (eta, eta_error), (psi, psi_error) = shear_material_functions(16)
@@ -154,7 +154,7 @@ def test_chains_stretched_and_released_relax_to_equilibrium():
     b = bond["spring_constant"] * q0**2 / scene.solvent.kT
     reference = (beads - 1) * 3 * q0**2 / (b + 5)
     batch = ensemble.replicate(simulation, simulation.init_fn(), seeds=list(range(1, 9)))
-    batch = ensemble.run(simulation, batch, 1000, 250)
+    batch = driver.run(simulation, batch, 1000, 250)
     strain_before = np.asarray(batch.box_state.strain)
     stretch_steps, rate = 500, 0.3
     result = relaxation.stretch_and_relax(

@@ -29,7 +29,7 @@ from jaxdpd.analysis.statistics import inverse_variance_mean, ratio_of_means
 from jaxdpd.forces.bonds import bond_law
 from jaxdpd.geometry.boxes import PeriodicBox
 from jaxdpd.geometry.chain_topology import ChainBlock
-from jaxdpd.observables import chain_series
+from jaxdpd.observables import chain_series, summary_rows
 from jaxdpd.observables.drag import giesekus_drag
 
 SIGMAS = 4.0
@@ -272,7 +272,7 @@ def test_summary_rows_of_a_sheared_dumbbell_solution():
         "dumbbell/spring_pair_pressure": 0.05 + 0.01 * rng.normal(size=(100, 3, 3)),
         "drag/relative_velocity": 0.4 + 0.05 * rng.normal(size=(100, 3)),
     }
-    rows = rheology.summary_rows(scene, series)
+    rows = summary_rows(scene, series)
     assert rows["viscosity"][0] == pytest.approx(
         float(rheology.material_functions(series["pressure_tensor"], 0.3)["viscosity"][0])
     )
@@ -295,11 +295,11 @@ def test_summary_rows_of_a_sheared_dumbbell_solution():
     averages = RunningBlockAverages(100)
     averages.add(0, {name: values[:60] for name, values in series.items()})
     averages.add(60, {name: values[60:] for name, values in series.items()})
-    streamed = rheology.summary_rows(scene, averages.block_means(), averages.n_blocks)
+    streamed = summary_rows(scene, averages.block_means(), averages.n_blocks)
     assert streamed.keys() == rows.keys()
     for name, (mean, error) in rows.items():
         assert streamed[name] == pytest.approx((mean, error), rel=1e-9), name
     # Too short a series gives no rows; a box at rest no material functions.
-    assert rheology.summary_rows(scene, {k: v[:10] for k, v in series.items()}) == {}
+    assert summary_rows(scene, {k: v[:10] for k, v in series.items()}) == {}
     at_rest = scene.replace(flow=None, box={"kind": "periodic"})
-    assert "viscosity" not in rheology.summary_rows(at_rest, series)
+    assert "viscosity" not in summary_rows(at_rest, series)

@@ -207,3 +207,31 @@ def test_a_flow_the_solvent_method_lacks_is_refused_naming_both_fields(method):
         with pytest.raises(ValueError) as raised:
             Scene.from_dict(data)
         assert f"flow.kind = {kind!r}: solvent.method = {method!r} supports" in str(raised.value)
+
+
+@pytest.mark.parametrize(
+    ("sections", "field"),
+    [
+        ({"solvent": {"method": "mpcd", "gamma": 1.0}}, "solvent"),
+        ({"flow": {"kind": "planar_elongation", "elongation_rate": 0.1}}, "flow.kind"),
+        ({"output": {"observables": ["conformation"]}}, "output.observables"),
+        (
+            {
+                "polymers": [
+                    {"species": "x", "beads": 2, "bond": {"law": "hookean", "spring_constant": 1}}
+                ]
+            },
+            "polymers[0].species",
+        ),
+    ],
+)
+def test_component_checks_raise_scene_errors_naming_the_field(sections, field):
+    """Checks owned by components (solvent fields, flows, observables, polymers) reach
+    the user as SceneError with the field's dotted path, like the field readers'."""
+    data = scene_dict(**sections)
+    if "flow" in sections:
+        data["solvent"] = {"method": "mpcd"}
+    with pytest.raises(SceneError) as raised:
+        Scene.from_dict(data)
+    assert raised.value.field == field
+    assert str(raised.value).startswith(field)

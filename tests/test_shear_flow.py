@@ -43,15 +43,15 @@ def sheared_scene(shear_rate, count, precision="float64", body_force=None, bins=
     )
 
 
-def collect_series(simulation, state, steps, chunk, run=driver.run):
+def collect_series(simulation, state, steps, chunk):
     parts = {}
 
     def keep(result):
         for name, values in result.series.items():
             parts.setdefault(name, []).append(np.asarray(values, np.float64))
 
-    state = run(simulation, state, steps, chunk, on_chunk=keep)
-    axis = 1 if run is ensemble.run else 0
+    state = driver.run(simulation, state, steps, chunk, on_chunk=keep)
+    axis = 1 if ensemble.is_batch(state) else 0
     return state, {name: np.concatenate(v, axis=axis) for name, v in parts.items()}
 
 
@@ -145,8 +145,8 @@ def test_solvent_viscosity_is_independent_of_shear_rate_up_to_0_1():
     simulation = build(scene)
     state = driver.run(simulation, simulation.init_fn(), 500, 250)
     batch = ensemble.replicate(simulation, state, seeds=[11, 12, 13], shear_rates=rates)
-    batch = ensemble.run(simulation, batch, 500, 250)
-    _, series = collect_series(simulation, batch, 40000, 1000, run=ensemble.run)
+    batch = driver.run(simulation, batch, 500, 250)
+    _, series = collect_series(simulation, batch, 40000, 1000)
     eta_stress, stress_error, eta_flow, flow_error = viscosities(series, scene, rates, force)
     print("η(stress)", eta_stress, "±", stress_error, "η(flow)", eta_flow, "±", flow_error)
     plateau, plateau_error = inverse_variance_mean(eta_stress, stress_error)

@@ -28,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.observables._checks import chain_positions, floating_array, positive_int
+from jaxdpd.analysis._checks import chain_positions, floating_array, positive_int
 
 __all__ = [
     "bond_vectors",

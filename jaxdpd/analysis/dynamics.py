@@ -44,8 +44,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.analysis._checks import chain_positions, floating_array, positive_int
 from jaxdpd.analysis.statistics import block_average
-from jaxdpd.observables._checks import chain_positions, floating_array, positive_int
 
 __all__ = [
     "average_over_elements",

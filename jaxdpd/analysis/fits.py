@@ -31,7 +31,7 @@ import dataclasses
 
 import numpy as np
 
-from jaxdpd.observables._checks import positive_int
+from jaxdpd.analysis._checks import positive_int
 
 __all__ = [
     "H_STAR_PHYSICAL_RANGE",

@@ -16,16 +16,14 @@ part ("kinetic", "conservative", "dissipative", "random") gives its share of η.
 Series are per-step samples, the time axis next to the tensor axes, with any
 leading axes (a replica axis of jaxdpd.run.ensemble); shear_rate is a scalar or one
 value per replica.  Errors are block averages over time (jaxdpd.analysis.statistics); a
-replica at γ̇ = 0 gets NaN.  `summary_rows` gathers what the run summary shows for
-a scene.
+replica at γ̇ = 0 gets NaN.  The run summary's rows come from the observables
+(jaxdpd.observables.summary_rows).
 """
 
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.engine.precision import as_array
-from jaxdpd.observables.drag import giesekus_drag, tagged_drag
 
 MATERIAL_FUNCTIONS = ("viscosity", "psi1", "psi2")
 PART_PREFIX = "pressure_tensor_part/"
@@ -115,71 +113,3 @@ def conformation_components(conformation, n_blocks: int = 20) -> dict:
     return {
         key: block_average(values, n_blocks=n_blocks, axis=-1) for key, values in components.items()
     }
-
-
-def summary_rows(scene, series: dict, n_blocks: int = 20) -> dict:
-    """Rows for the run summary: name → (mean, standard error) as Python floats.
-
-    Args:
-        scene: the run's scene.
-        series: name → (T, ...) series, per-step samples or the block means of a
-            streamed run (jaxdpd.analysis.running_averages.RunningBlockAverages.block_means,
-            T = n_blocks: every function here is linear in the samples or a ratio
-            of such means, so block means give the same estimates).
-        n_blocks: blocks of the time series (≥ 2).
-    Returns:
-        name → (mean, standard error).
-
-    For a steady shear flow with "pressure": the material functions of
-    `shear_rheology`; with "conformation": the sheared components of each species'
-    ⟨QQ⟩ (`conformation_components`) and, for dumbbells under shear, the Giesekus
-    drag coefficient "<species>/drag_giesekus" (jaxdpd.observables.drag, "shear"
-    component, springs alone as thesis eq. 4.18) and "<species>/drag_giesekus_ev"
-    (springs plus the bead repulsion across them); with "drag": the
-    tagged-particle drag coefficient "drag/zeta".
-    Series shorter than n_blocks give no row.
-    """
-    rows = {}
-
-    def add(name, estimate):
-        mean, error = estimate
-        rows[name] = (float(mean), float(error))
-
-    def long_enough(name):
-        return n_blocks >= 2 and name in series and np.shape(series[name])[0] >= n_blocks
-
-    flow = scene.flow
-    steady_shear = flow is not None and flow.kind == "shear" and flow.oscillation_frequency is None
-    if steady_shear and long_enough("pressure_tensor") and flow.shear_rate != 0:
-        for name, estimate in shear_rheology(series, flow.shear_rate, n_blocks).items():
-            add(name, estimate)
-    for polymer in scene.polymers:
-        name = f"{polymer.species}/bond_conformation"
-        if not long_enough(name):
-            continue
-        for key, estimate in conformation_components(series[name], n_blocks).items():
-            add(f"{name}_{key}", estimate)
-        bond = f"{PART_PREFIX}bond"
-        if steady_shear and flow.shear_rate != 0 and polymer.beads == 2 and long_enough(bond):
-            springs = next(s.count for s in scene.particles.species if s.name == polymer.species)
-            density = springs / 2 / scene.volume
-            arguments = (series[bond], series[name], flow.shear_rate, density, scene.solvent.kT)
-            add(f"{polymer.species}/drag_giesekus", giesekus_drag(*arguments, n_blocks=n_blocks))
-            repulsion = f"{polymer.species}/spring_pair_pressure"
-            if repulsion in series:
-                estimate = giesekus_drag(
-                    *arguments, n_blocks=n_blocks, intramolecular_pressure=series[repulsion]
-                )
-                add(f"{polymer.species}/drag_giesekus_ev", estimate)
-    if long_enough("drag/relative_velocity"):
-        force = scene.body_force
-        tagged = next(s.count for s in scene.particles.species if s.name == force.species)
-        estimate = tagged_drag(
-            series["drag/relative_velocity"][:, 0],
-            force.amplitude,
-            tagged,
-            scene.n_particles,
-            n_blocks,
-        )
-        add("drag/zeta", estimate)
-    return rows

@@ -19,7 +19,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.observables._checks import chain_positions, floating_array, positive_int
+from jaxdpd.analysis._checks import chain_positions, floating_array, positive_int
 
 __all__ = [
     "WaveVectorShells",

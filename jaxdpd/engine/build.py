@@ -2,14 +2,17 @@
 
 Nothing the scene does not ask for is traced: without a [pair] section there is no
 conservative force, with γ = 0 no dissipative or random force, with Lowe–Andersen
-Γ = 0 no thermalisation, without "pressure" no virial, without [[polymers]] no bond
-kernel, without [body_force] no external force, with no pair term or thermostat at
-all no neighbour search, in a box at rest (no [flow]) no flow arithmetic, and
-without [spring_repulsion] or the "spring_pairs" observable no spring-pair list.
+Γ = 0 no thermalisation, without an observable that needs it ("pressure") no
+virial, without [[polymers]] no bond kernel, without [body_force] no external force,
+with no pair term or thermostat at all no neighbour search, in a box at rest (no
+[flow]) no flow arithmetic, and without [spring_repulsion] or the "spring_pairs"
+observable no spring-pair list.
 The solvent method's component (jaxdpd.solvents.SOLVENTS) adds its pair terms, the
 reach of a pair thermostat, the range of particles that feel forces (e.g. only the
 monomers of an MPCD solvent: the force kernel and its neighbour search cover them
 alone), its state beside the particles (SimState.solvent_state) and the step itself.
+After the solvent's step, each observable the scene lists samples the state
+(jaxdpd.observables.component), in registration order.
 
 The bond constants and the body-force amplitude are read from
 `SimState.parameters` (jaxdpd.engine.parameters): one compiled step serves every value.
@@ -22,9 +25,9 @@ from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdpd.engine import errors, noise
+from jaxdpd.engine.buffers import NeighborBuffers
 from jaxdpd.engine.parameters import scene_parameters
 from jaxdpd.engine.precision import enable_float64
 from jaxdpd.engine.state import SimState
@@ -41,25 +44,14 @@ from jaxdpd.forces.spring_repulsion import (
 )
 from jaxdpd.geometry.boxes import make_box
 from jaxdpd.geometry.chain_topology import chain_blocks
-from jaxdpd.geometry.neighbors import NeighborSearch, PairList, neighbor_search
+from jaxdpd.geometry.neighbors import NeighborSearch, neighbor_search
 from jaxdpd.geometry.neighbors.spring_pair_list import (
     SpringPairSearch,
     free_spring_length,
-    spring_pair_needs,
-    spring_pair_shapes,
 )
 from jaxdpd.geometry.placement import initial_configuration
-from jaxdpd.observables.chain_correlators import (
-    init_chain_correlators,
-    sample_every,
-    update_chain_correlators,
-)
-from jaxdpd.observables.chain_series import conformation_samples, spring_pair_pressure
-from jaxdpd.observables.drag import relative_velocity_samples
-from jaxdpd.observables.profiles import profile_samples
-from jaxdpd.observables.spring_pairs import spring_pair_samples
-from jaxdpd.observables.thermo import step_samples
-from jaxdpd.observables.transverse_current import transverse_currents
+from jaxdpd.observables import initial_observers, scene_observables
+from jaxdpd.observables.component import BuildContext
 from jaxdpd.run.resources import check_resources
 from jaxdpd.scene import Scene
 from jaxdpd.solvents import StepContext
@@ -128,17 +120,6 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
-def species_range(scene: Scene, name: str) -> tuple[int, int]:
-    """(first index, count) of the particles of species `name` (stored species
-    after species)."""
-    first = 0
-    for species in scene.particles.species:
-        if species.name == name:
-            return first, species.count
-        first += species.count
-    raise ValueError(f"species {name!r}: not in the scene's species {scene.species_names}")
-
-
 def body_force_law(scene: Scene, dtype):
     """`force(positions, amplitude)` of the scene's [body_force], or None."""
     section = scene.body_force
@@ -146,7 +127,7 @@ def body_force_law(scene: Scene, dtype):
         return None
     if section.kind == "cosine":
         return cosine_body_force(section.waves, scene.box.lengths[1], dtype)
-    first, count = species_range(scene, section.species)
+    first, count = scene.species_range(section.species)
     return tagged_body_force(first, count, scene.n_particles, dtype)
 
 
@@ -270,6 +251,32 @@ def particle_masses(scene: Scene, dtype):
     )
 
 
+def pair_search(scene: Scene, box, terms, bath_cutoff, particles: int):
+    """The neighbour backend of the pair terms and a pair thermostat over `particles`
+    particles, or None when the scene has neither."""
+    if not terms and bath_cutoff is None:
+        return None
+    neighbors = scene.neighbors
+    reach = max(scene.cutoff, bath_cutoff or 0.0)
+    return neighbor_search(
+        box, particles, reach, neighbors.skin, neighbors.method, neighbors.format
+    )
+
+
+def spring_pair_search(scene: Scene, box, blocks) -> SpringPairSearch | None:
+    """The spring-pair list's builder, when the scene reads spring pairs."""
+    if scene.spring_reach is None:
+        return None
+    return SpringPairSearch(
+        box,
+        spring_table(blocks),
+        scene.spring_reach,
+        scene.neighbors.spring_skin,
+        max(free_spring_length(block.law, scene.solvent.kT) for block in blocks),
+        scene.neighbors.capacity_multiplier,
+    )
+
+
 @functools.lru_cache(maxsize=16)
 def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
@@ -285,31 +292,14 @@ def build(scene: Scene) -> Simulation:
     blocks = chain_blocks(scene)
     first, stop = solvent.force_range(scene, blocks)
     local_blocks = tuple(dataclasses.replace(b, first=b.first - first) for b in blocks)
-    with_virial = "pressure" in scene.output.observables
+    observables = scene_observables(scene)
+    with_virial = any(component.needs_virial for component in observables)
     masses = particle_masses(scene, dtype)
-    bath_cutoff = solvent.bath_cutoff(scene)
-    body_force = body_force_law(scene, dtype)
-    search = None
-    if terms or bath_cutoff is not None:
-        search = neighbor_search(
-            box,
-            stop - first,
-            max(scene.cutoff, bath_cutoff or 0.0),
-            scene.neighbors.skin,
-            scene.neighbors.method,
-            scene.neighbors.format,
-        )
-
-    spring_search = None
-    if scene.spring_reach is not None:
-        spring_search = SpringPairSearch(
-            box,
-            spring_table(blocks),
-            scene.spring_reach,
-            scene.neighbors.spring_skin,
-            max(free_spring_length(block.law, scene.solvent.kT) for block in blocks),
-            scene.neighbors.capacity_multiplier,
-        )
+    search = pair_search(scene, box, terms, solvent.bath_cutoff(scene), stop - first)
+    spring_search = spring_pair_search(scene, box, blocks)
+    buffers = NeighborBuffers(
+        search, spring_search, (first, stop), scene.neighbors.capacity_multiplier
+    )
     repulsion = None
     if scene.spring_repulsion is not None:
         repulsion = spring_repulsion_law(scene.spring_repulsion.table())
@@ -321,116 +311,26 @@ def build(scene: Scene) -> Simulation:
         local_blocks,
         scene.cutoff,
         with_virial,
-        body_force,
+        body_force_law(scene, dtype),
         spring_search,
         repulsion,
     )
-
     advance = solvent.advance(
         StepContext(scene, box, interactions, masses, (first, stop), search, with_virial, dtype)
     )
-
-    observables = scene.output.observables
-    spring_pair_strengths = []  # (block, a of its species with itself)
-    if {"conformation", "pressure"} <= set(observables) and scene.pair is not None:
-        names = scene.species_names
-        spring_pair_strengths = [
-            (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
-            for block in blocks
-        ]
-    tagged_range = None
-    if "drag" in observables:
-        tagged_range = species_range(scene, scene.body_force.species)
+    context = BuildContext(scene, box, blocks, masses, dtype, spring_search)
+    samplers = [s for s in (c.sampler(context) for c in observables) if s is not None]
 
     def step_fn(previous):
         state = advance(previous)
-        samples = step_samples(observables, state, masses)
-        bound_box = box.bind(state.box_state)
-        if "conformation" in observables:
-            samples.update(
-                conformation_samples(
-                    bound_box, state.positions, blocks, state.parameters, state.image
-                )
-            )
-            for block, strength in spring_pair_strengths:
-                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
-                    bound_box,
-                    state.positions,
-                    block,
-                    strength,
-                    scene.cutoff,
-                    scene.volume,
-                    state.image,
-                )
-        if "drag" in observables:
-            samples.update(relative_velocity_samples(state.velocities, tagged_range))
-        if "profile" in observables:
-            samples.update(
-                profile_samples(
-                    bound_box, state.positions, state.velocities, masses, scene.output.profile_bins
-                )
-            )
-        if "transverse_current" in observables:
-            samples["transverse_current"] = transverse_currents(
-                state.positions, state.velocities, masses, box.lengths, scene.output.current_modes
-            )
-        if "dynamics" in observables:
-            observers = sample_every(
-                state.step,
-                scene.output.correlator_every,
-                state.observers,
-                lambda c: update_chain_correlators(
-                    c, bound_box, state.positions, state.image, blocks
-                ),
-            )
-            state = state.set(observers=observers)
-        if "spring_pairs" in observables:
-            # The same list slots at both ends of the step: crossings are reversals.
-            before = spring_search.measure(
-                previous.positions, state.spring_pairs, previous.box_state
-            )
-            after = spring_search.measure(state.positions, state.spring_pairs, state.box_state)
-            output = scene.output
-            samples.update(
-                spring_pair_samples(
-                    before, after, output.spring_pair_max, output.spring_pair_bins, dtype
-                )
-            )
+        samples = {}
+        for sample in samplers:
+            state, taken = sample(previous, state)
+            samples.update(taken)
         return state, samples
 
     def init_observers(state):
-        """The state with empty on-device accumulators (e.g. after equilibration).
-
-        `state` is one replica (positions (N, 3)) or a batch (B, N, 3) from
-        jaxdpd.run.ensemble; a batch gets B copies of one replica's empty accumulators
-        (they depend only on the shapes), stacked on a leading axis.
-        """
-        if "dynamics" not in observables:
-            return state
-        batch_shape = state.positions.shape[:-2]
-        if len(batch_shape) > 1:
-            raise ValueError(
-                f"init_observers: state.positions must be (N, 3) or (B, N, 3), "
-                f"got shape {state.positions.shape}"
-            )
-        positions, image, box_state = state.positions, state.image, state.box_state
-        if batch_shape:
-            positions, image = positions[0], image[0]
-            box_state = jax.tree.map(lambda leaf: leaf[0], box_state)
-        observers = init_chain_correlators(
-            box.bind(box_state), positions, image, blocks, scene.output.correlator_levels
-        )
-        return state.set(
-            observers=jax.tree.map(
-                lambda leaf: jnp.broadcast_to(leaf, batch_shape + leaf.shape), observers
-            )
-        )
-
-    def allocate_pairs(positions, box_state, minimum=None):
-        if search is None:
-            return _empty_pair_list(positions)
-        rows = positions[first:stop]
-        return search.allocate(rows, scene.neighbors.capacity_multiplier, minimum, box_state)
+        return initial_observers(observables, context, state)
 
     def init_fn():
         positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
@@ -441,7 +341,7 @@ def build(scene: Scene) -> Simulation:
             forces=jnp.zeros_like(positions),
             image=image,
             species=species,
-            pair_list=allocate_pairs(positions, box_state),
+            pair_list=buffers.pair_list(positions, box_state),
             virial={},
             step=jnp.asarray(0, jnp.int32),
             time=jnp.asarray(0.0, dtype),
@@ -449,7 +349,7 @@ def build(scene: Scene) -> Simulation:
             flags=jnp.asarray(0, jnp.int32),
             box_state=box_state,
             parameters=scene_parameters(scene, blocks, dtype),
-            spring_pairs=allocate_spring_pairs(positions, box_state),
+            spring_pairs=buffers.spring_pairs(positions, box_state),
         )
         solvent_state = solvent.initial_solvent_state(scene, dtype)
         if solvent_state is not None:
@@ -473,38 +373,6 @@ def build(scene: Scene) -> Simulation:
             )
         return state
 
-    def allocate_spring_pairs(positions, box_state, minimum=None):
-        if spring_search is None:
-            return None
-        return spring_search.allocate(positions, box_state, minimum)
-
-    def reallocate(state, minimum=None):
-        if minimum is not None:
-            minimum = tuple(np.max(v) for v in minimum)  # a batch's largest needs
-        particles = None if minimum is None else minimum[:2]
-        state = state.set(pair_list=allocate_pairs(state.positions, state.box_state, particles))
-        if spring_search is None:
-            return state
-        # Without recorded needs, keep at least the longest spring seen so far.
-        springs = minimum[2:] if minimum is not None and len(minimum) > 2 else None
-        springs = springs or (0, 0, np.asarray(state.spring_pairs.longest))
-        return state.set(
-            spring_pairs=allocate_spring_pairs(state.positions, state.box_state, springs)
-        )
-
-    def buffer_needs(state) -> tuple:
-        pair_list = state.pair_list
-        needs = (np.asarray(pair_list.needed_pairs), np.asarray(pair_list.needed_cell_occupancy))
-        if spring_search is not None:
-            needs += spring_pair_needs(state.spring_pairs)
-        return needs
-
-    def buffer_shapes(state) -> tuple:
-        shapes = (state.pair_list.capacity, state.pair_list.cell_capacity)
-        if spring_search is not None:
-            shapes += spring_pair_shapes(state.spring_pairs)
-        return shapes
-
     return Simulation(
         scene,
         box,
@@ -515,16 +383,8 @@ def build(scene: Scene) -> Simulation:
         spring_search,
         init_fn,
         step_fn,
-        reallocate,
+        buffers.reallocate,
         init_observers,
-        buffer_needs,
-        buffer_shapes,
+        buffers.needs,
+        buffers.shapes,
     )
-
-
-def _empty_pair_list(positions):
-    """A one-slot, never-refreshed pair list for scenes without pair terms."""
-    n = positions.shape[0]
-    empty = jnp.full((1,), n, jnp.int32)
-    zero = jnp.asarray(0, jnp.int32)
-    return PairList(empty, empty, positions, None, zero, zero, jnp.asarray(False), zero)

@@ -1,5 +1,8 @@
 """Output files: H5MD trajectories and observables, checkpoints, and reading them back.
 
+Reading imports no part of the engine and compiles nothing; restoring a checkpointed
+state into a built simulation is jaxdpd.run.restore.
+
 H5MDWriter                          jaxdpd.io.h5md (layout in its docstring)
 write_tree / read_tree              any pytree to/from an HDF5 group, bit for bit
 load, read_scene, read_state,       jaxdpd.io.reader

@@ -4,6 +4,11 @@ Every failure to read (missing or truncated file, damaged content, an invalid st
 scene, a checkpoint that does not fit the scene) raises `RunFileError` naming the
 file and the part, never a bare h5py or JAX exception.  The state is read from the
 file's checkpoint file (`<file>.checkpoint`, jaxdpd.io.checkpoint).
+
+Reading never builds or compiles a simulation (io does not import the engine): the
+scene and the series come back as plain data, and the checkpointed state is restored
+into a template state the caller built (jaxdpd.run.restore builds the stored scene
+and restores its state in one call).
 """
 
 import json
@@ -33,13 +38,12 @@ class RunRecord:
 
     Attributes:
         scene: the Scene the run was made from.
-        state: the checkpointed SimState (None when the file holds no checkpoint).
-        checkpoint: the checkpoint's step, phase and reason (None without one).
+        checkpoint: the checkpoint's step, phase and reason (None without one); its
+            state is read by `read_state` (or jaxdpd.run.restore).
         observables: name -> Series of every stored observable.
     """
 
     scene: object
-    state: object
     checkpoint: checkpoint.CheckpointInfo | None
     observables: dict
 
@@ -79,21 +83,18 @@ def read_scene(path):
         return scene_of(handle)
 
 
-def read_state(path, simulation=None):
-    """The checkpointed SimState of a file.
+def read_state(path, template):
+    """The checkpointed SimState of a file, restored into the structure of `template`.
 
     Args:
         path: the file.
-        simulation: the built simulation of the file's scene (built here when None);
-            its initial state is the template the leaves are restored into.
+        template: a state of the file's scene (e.g. `build(read_scene(path)).init_fn()`;
+            jaxdpd.run.restore does this); it gives the pytree structure and the static
+            parts, the file every leaf.
     Returns:
         The SimState, every leaf with the stored dtype, shape and bits.
     """
-    from jaxdpd.engine.build import build
-
-    if simulation is None:
-        simulation = build(read_scene(path))
-    return checkpoint.read_checkpoint_state(path, simulation.init_fn())
+    return checkpoint.read_checkpoint_state(path, template)
 
 
 def read_checkpoint(path) -> dict:
@@ -181,22 +182,19 @@ def read_unwrapped_positions(path) -> Series:
 
 
 def load(path) -> RunRecord:
-    """Scene, checkpointed state (restored through the scene's build()) and every
-    observable of a file (state and checkpoint None when it has no checkpoint file)."""
-    from jaxdpd.engine.build import build
-
+    """Scene, checkpoint header (None when the file has no checkpoint file) and every
+    observable of a file; nothing is built or compiled."""
     with open_run_file(path) as handle:
         scene = scene_of(handle)
         run_id = handle["parameters"].attrs.get("run_id")
         observables = {
             name: _series(handle[f"observables/{name}"]) for name in time_series_names(handle)
         }
-    state = info = None
+    info = None
     if checkpoint.checkpoint_path(path).exists():
         info = checkpoint.read_checkpoint_info(path)
         if info.run_id != run_id:
             raise RunFileError(
                 f"{checkpoint.checkpoint_path(path)}: belongs to another run than {path}"
             )
-        state = checkpoint.read_checkpoint_state(path, build(scene).init_fn())
-    return RunRecord(scene, state, info, observables)
+    return RunRecord(scene, info, observables)

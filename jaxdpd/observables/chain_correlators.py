@@ -40,6 +40,8 @@ from jaxdpd.analysis.dynamics import (
     normalized_correlation,
 )
 from jaxdpd.observables import correlator
+from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.validation import SceneError
 
 MSD_SERIES = ("g1", "g2", "g3")
 SERIES = (*MSD_SERIES, "end_to_end_acf", "positional_acf")
@@ -172,3 +174,46 @@ def center_of_mass_diffusion(correlations: dict, fit_fraction: float = 0.25) -> 
             times, per_chain[reached], fit_from=fit_fraction * times[-1]
         )
     return estimates
+
+
+class Dynamics(Observable):
+    """Chain mean-square displacements and autocorrelations, accumulated on device in
+    SimState.observers every output.correlator_every steps (module docstring)."""
+
+    name = "dynamics"
+    settings = (
+        Setting("correlator_every", 10, minimum=1, integer=True),
+        Setting("correlator_levels", 12, minimum=1, maximum=30, integer=True),
+    )
+    needs_polymers = True
+    accumulates = True
+
+    def check(self, scene):
+        if scene.flow is not None and scene.flow.kind == "planar_elongation":
+            raise SceneError(
+                "output.observables",
+                "'dynamics' (mean-square displacements) needs a box at rest or in shear "
+                "(Kraynik–Reinelt positions cannot be unwrapped); under elongation, "
+                "measure the chains with 'conformation'",
+            )
+
+    def sampler(self, context):
+        box, blocks, every = context.box, context.blocks, context.scene.output.correlator_every
+
+        def sample(previous, state):
+            bound_box = box.bind(state.box_state)
+            observers = sample_every(
+                state.step,
+                every,
+                state.observers,
+                lambda c: update_chain_correlators(
+                    c, bound_box, state.positions, state.image, blocks
+                ),
+            )
+            return state.set(observers=observers), {}
+
+        return sample
+
+    def initial_accumulators(self, context, bound_box, positions, image):
+        levels = context.scene.output.correlator_levels
+        return init_chain_correlators(bound_box, positions, image, context.blocks, levels)

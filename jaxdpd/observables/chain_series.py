@@ -33,8 +33,16 @@ from jaxdpd.analysis.conformation import (
     fractional_extension,
     gyration_radius_squared,
 )
+from jaxdpd.analysis.rheology import PART_PREFIX, conformation_components
 from jaxdpd.forces.pair_laws import soft_repulsion
 from jaxdpd.geometry.chain_topology import chain_coordinates
+from jaxdpd.observables.component import (
+    Observable,
+    long_enough,
+    steady_shear_rate,
+    summary_row,
+)
+from jaxdpd.observables.drag import giesekus_drag
 
 
 def conformation_samples(box, positions, blocks, parameters=None, image=None) -> dict:
@@ -129,3 +137,80 @@ def ideal_references(blocks, kT: float) -> dict:
             if m > 2:
                 references[f"{block.species}/end_to_end_sq"] = (m - 1) * l_sq
     return references
+
+
+class Conformation(Observable):
+    """The per-step chain conformation samples of every block (module docstring);
+    with "pressure" and a [pair], each block's spring_pair_pressure too."""
+
+    name = "conformation"
+    needs_polymers = True
+    units = {
+        name: "r_c^2"
+        for name in (
+            "bond_length_sq",
+            "bond_conformation",
+            "end_to_end_sq",
+            "end_to_end_conformation",
+            "gyration_radius_sq",
+        )
+    } | {"spring_pair_pressure": "k_BT/r_c^3"}
+
+    def sampler(self, context):
+        scene, box, blocks = context.scene, context.box, context.blocks
+        strengths = []  # (block, a of its species with itself)
+        if "pressure" in scene.output.observables and scene.pair is not None:
+            names = scene.species_names
+            strengths = [
+                (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
+                for block in blocks
+            ]
+
+        def sample(previous, state):
+            bound_box = box.bind(state.box_state)
+            samples = conformation_samples(
+                bound_box, state.positions, blocks, state.parameters, state.image
+            )
+            for block, strength in strengths:
+                samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
+                    bound_box,
+                    state.positions,
+                    block,
+                    strength,
+                    scene.cutoff,
+                    scene.volume,
+                    state.image,
+                )
+            return state, samples
+
+        return sample
+
+    def summary_rows(self, scene, series, n_blocks):
+        """The sheared components of each species' ⟨QQ⟩ (`conformation_components`)
+        and, for dumbbells under steady shear, the Giesekus drag coefficient
+        "<species>/drag_giesekus" (jaxdpd.observables.drag, "shear" component, springs
+        alone as thesis eq. 4.18) and "<species>/drag_giesekus_ev" (springs plus the
+        bead repulsion across them)."""
+        rows = {}
+        rate = steady_shear_rate(scene)
+        bond = f"{PART_PREFIX}bond"
+        for polymer in scene.polymers:
+            name = f"{polymer.species}/bond_conformation"
+            if not long_enough(series, name, n_blocks):
+                continue
+            for key, estimate in conformation_components(series[name], n_blocks).items():
+                rows[f"{name}_{key}"] = summary_row(estimate)
+            if rate is None or polymer.beads != 2 or not long_enough(series, bond, n_blocks):
+                continue
+            _, springs = scene.species_range(polymer.species)
+            density = springs / 2 / scene.volume
+            arguments = (series[bond], series[name], rate, density, scene.solvent.kT)
+            estimate = giesekus_drag(*arguments, n_blocks=n_blocks)
+            rows[f"{polymer.species}/drag_giesekus"] = summary_row(estimate)
+            repulsion = f"{polymer.species}/spring_pair_pressure"
+            if repulsion in series:
+                estimate = giesekus_drag(
+                    *arguments, n_blocks=n_blocks, intramolecular_pressure=series[repulsion]
+                )
+                rows[f"{polymer.species}/drag_giesekus_ev"] = summary_row(estimate)
+        return rows

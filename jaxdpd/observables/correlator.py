@@ -63,7 +63,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.observables._checks import positive_int
+from jaxdpd.analysis._checks import positive_int
 
 __all__ = ["MODES", "MultipleTauState", "init", "lags", "result", "update", "update_many"]
 

@@ -51,6 +51,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.analysis.statistics import block_average, ratio_of_means
+from jaxdpd.observables.component import Observable, long_enough, summary_row
+from jaxdpd.validation import SceneError
 
 GIESEKUS_COMPONENTS = ("shear", "normal", "xx")
 
@@ -152,3 +154,43 @@ def giesekus_drag(
         numerator = -2 * (pressure[..., 0, 0] + spring_density * kT)
         denominator = conformation[..., 0, 1]
     return ratio_of_means(numerator, spring_density * rate * denominator, n_blocks, axis=-1)
+
+
+class Drag(Observable):
+    """The tagged particles' mean velocity relative to the others, per step; the drag
+    coefficient "drag/zeta" in the run summary (`tagged_drag`)."""
+
+    name = "drag"
+    units = {"relative_velocity": "r_c/τ"}
+
+    def check(self, scene):
+        if scene.body_force is None or scene.body_force.kind != "tagged":
+            raise SceneError(
+                "output.observables",
+                "'drag' measures the drift of tagged particles; add [body_force] kind = "
+                "'tagged' with their species, or remove it",
+            )
+
+    def sampler(self, context):
+        scene = context.scene
+        tagged_range = scene.species_range(scene.body_force.species)
+
+        def sample(previous, state):
+            return state, relative_velocity_samples(state.velocities, tagged_range)
+
+        return sample
+
+    def summary_rows(self, scene, series, n_blocks):
+        """The tagged-particle drag coefficient "drag/zeta" (`tagged_drag`)."""
+        if not long_enough(series, "drag/relative_velocity", n_blocks):
+            return {}
+        force = scene.body_force
+        _, tagged = scene.species_range(force.species)
+        estimate = tagged_drag(
+            series["drag/relative_velocity"][:, 0],
+            force.amplitude,
+            tagged,
+            scene.n_particles,
+            n_blocks,
+        )
+        return {"drag/zeta": summary_row(estimate)}

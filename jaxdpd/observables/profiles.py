@@ -12,6 +12,8 @@ the flow is homogeneous); in shear the velocity is linear, γ̇ (y − L_y/2).
 import jax
 import jax.numpy as jnp
 
+from jaxdpd.observables.component import Observable, Setting
+
 
 def slab_centres(length_y: float, bins: int):
     """(B,) centres of the slabs along y."""
@@ -35,3 +37,23 @@ def profile_samples(bound_box, positions, velocities, masses, bins: int) -> dict
         "profile/velocity_x": jax.ops.segment_sum(lab_x, slab, bins) / safe,
         "profile/temperature": twice_kinetic / (3 * safe),
     }
+
+
+class Profile(Observable):
+    """Per-step density, lab velocity v_x and temperature in output.profile_bins slabs
+    along y."""
+
+    name = "profile"
+    settings = (Setting("profile_bins", 20, minimum=1, integer=True),)
+    units = {"density": "r_c^-3", "velocity_x": "r_c/τ"}
+
+    def sampler(self, context):
+        box, masses, bins = context.box, context.masses, context.scene.output.profile_bins
+
+        def sample(previous, state):
+            bound_box = box.bind(state.box_state)
+            return state, profile_samples(
+                bound_box, state.positions, state.velocities, masses, bins
+            )
+
+        return sample

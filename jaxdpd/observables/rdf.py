@@ -15,8 +15,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.geometry.boxes import make_box
 from jaxdpd.geometry.neighbors import PairList, neighbor_search
 from jaxdpd.geometry.neighbors.cell_list import cell_grid
+from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.validation import SceneError
 
 
 class RadialDistribution:
@@ -80,6 +83,24 @@ class RadialDistribution:
         self.counts += np.asarray(counts)
         self.samples += 1
 
+    def observe(self, state) -> None:
+        """Add the configuration of a SimState at a chunk end."""
+        self.sample(state.positions, state.box_state)
+
+    def extras(self) -> dict:
+        """The histogram, stored with a checkpoint."""
+        return {"rdf_counts": self.counts, "rdf_samples": np.asarray(self.samples)}
+
+    def restore(self, extras: dict) -> None:
+        """The histogram from a checkpoint's `extras`."""
+        self.counts = np.array(extras["rdf_counts"], np.int64)
+        self.samples = int(extras["rdf_samples"])
+
+    def write(self, writer) -> None:
+        """g(r) to /averages/rdf of an H5MDWriter (nothing before any sample)."""
+        if self.samples:
+            writer.write_rdf(*self.result(), self.samples)
+
     def result(self):
         """(shell centres r, g(r)) as NumPy arrays (NaN before any sample)."""
         edges = np.linspace(0.0, self.r_max, self.bins + 1)
@@ -89,3 +110,30 @@ class RadialDistribution:
         expected = 0.5 * n * (n - 1) * shell_volume / self.box.volume * self.samples
         with np.errstate(invalid="ignore", divide="ignore"):
             return centres, self.counts / expected
+
+
+class Rdf(Observable):
+    """g(r), histogrammed on the host at chunk ends (`RadialDistribution`) and written
+    to /averages/rdf: no per-step sample."""
+
+    name = "rdf"
+    settings = (
+        Setting("rdf_bins", 100, minimum=1, integer=True),
+        Setting("rdf_max", 3.0, minimum=0, exclusive_minimum=True),
+    )
+
+    def chunk_accumulator(self, simulation):
+        output = simulation.scene.output
+        return RadialDistribution(
+            simulation.box, simulation.scene.n_particles, output.rdf_max, output.rdf_bins
+        )
+
+    def check(self, scene):
+        heights = make_box(scene.box.kind, scene.box.lengths, scene.flow).cell_heights
+        rdf_max = scene.output.rdf_max
+        if not rdf_max < min(heights) / 2:
+            raise SceneError(
+                "output.rdf_max",
+                f"{rdf_max} must be < half the box's thinnest extent ({min(heights) / 2:.4g}; "
+                "the shortest edge, or a sheared box's tilted height)",
+            )

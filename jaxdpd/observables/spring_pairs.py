@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.forces.spring_repulsion import SpringPairGeometry
+from jaxdpd.observables.component import Observable, Setting
 
 
 def _inside(approach):
@@ -72,3 +73,29 @@ def spring_pair_distribution(mean_histogram, max_distance: float, n_springs: int
     width = max_distance / bins
     centres = (np.arange(bins) + 0.5) * width
     return centres, 2 * mean_histogram / (n_springs * width)
+
+
+class SpringPairs(Observable):
+    """Per-step histogram of spring closest approaches below output.spring_pair_max
+    and the count of spring crossings (read from the spring-pair list)."""
+
+    name = "spring_pairs"
+    settings = (
+        Setting("spring_pair_bins", 50, minimum=1, integer=True),
+        Setting("spring_pair_max", lambda cutoff: cutoff / 3, minimum=0, exclusive_minimum=True),
+    )
+    needs_polymers = True
+
+    def sampler(self, context):
+        search, dtype = context.spring_search, context.dtype
+        output = context.scene.output
+
+        def sample(previous, state):
+            # The same list slots at both ends of the step: crossings are reversals.
+            before = search.measure(previous.positions, state.spring_pairs, previous.box_state)
+            after = search.measure(state.positions, state.spring_pairs, state.box_state)
+            return state, spring_pair_samples(
+                before, after, output.spring_pair_max, output.spring_pair_bins, dtype
+            )
+
+        return sample

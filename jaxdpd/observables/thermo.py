@@ -13,6 +13,14 @@ term; v is the peculiar velocity in flow.)  Each part is reported separately.
 
 import numpy as np
 
+from jaxdpd.analysis.rheology import shear_rheology
+from jaxdpd.observables.component import (
+    Observable,
+    long_enough,
+    steady_shear_rate,
+    summary_row,
+)
+
 
 def kinetic_tensor(velocities, masses=None):
     """Σ_i m_i v_ia v_ib, (3, 3); `masses` (N,) or None for unit masses."""
@@ -33,39 +41,82 @@ def scalar_pressure(tensor):
     return np.trace(np.asarray(tensor), axis1=-2, axis2=-1) / 3
 
 
-def step_samples(observables, state, masses=None):
-    """The per-step samples a scene asked for (traced, inside the scan)."""
-    samples = {}
-    if "temperature" in observables or "pressure" in observables:
-        samples["kinetic"] = kinetic_tensor(state.velocities, masses)
-    if "pressure" in observables:
-        samples["virial"] = state.virial
-    return samples
+def temperature_series(samples: dict, scene) -> dict:
+    """ "temperature" from the per-step kinetic tensors (momentum conserved as the
+    scene's particles conserve it)."""
+    kinetic = samples["kinetic"]
+    return {
+        "temperature": temperature(kinetic, scene.n_particles, scene.particle_momentum_conserved)
+    }
 
 
-def reduce_samples(
-    samples: dict, n_particles: int, volume: float, momentum_conserved: bool = True
-) -> dict:
-    """Per-step kinetic tensors and virial parts → named time series (NumPy, host
-    side); other samples (already named series, e.g. conformation) pass through.
-
-    Series: "temperature" (`momentum_conserved` as in `temperature`);
-    "pressure_tensor" (total), "pressure" (its trace / 3) and
-    "pressure_tensor_part/<part>" for "kinetic" and each virial part the step recorded
-    ("conservative", "dissipative", "random", "bond", ...: thesis eqs. 3.46–3.49
-    with the sign of a pressure, σ = −P).
-    """
-    passed = ("kinetic", "virial")
-    series = {name: values for name, values in samples.items() if name not in passed}
-    if "kinetic" in samples:
-        series["temperature"] = temperature(samples["kinetic"], n_particles, momentum_conserved)
-    if "virial" in samples:
-        kinetic = np.asarray(samples["kinetic"])
-        series["pressure_tensor_part/kinetic"] = kinetic / volume
-        total = kinetic
-        for name, virial in samples["virial"].items():
-            series[f"pressure_tensor_part/{name}"] = np.asarray(virial) / volume
-            total = total + np.asarray(virial)
-        series["pressure_tensor"] = total / volume
-        series["pressure"] = scalar_pressure(series["pressure_tensor"])
+def pressure_series(samples: dict, scene) -> dict:
+    """Per-step kinetic tensors and virial parts → "pressure_tensor" (total),
+    "pressure" (its trace / 3) and "pressure_tensor_part/<part>" for "kinetic" and each
+    virial part the step recorded ("conservative", "dissipative", "random", "bond",
+    ...: thesis eqs. 3.46–3.49 with the sign of a pressure, σ = −P)."""
+    volume = scene.volume
+    kinetic = np.asarray(samples["kinetic"])
+    series = {"pressure_tensor_part/kinetic": kinetic / volume}
+    total = kinetic
+    for name, virial in samples["virial"].items():
+        series[f"pressure_tensor_part/{name}"] = np.asarray(virial) / volume
+        total = total + np.asarray(virial)
+    series["pressure_tensor"] = total / volume
+    series["pressure"] = scalar_pressure(series["pressure_tensor"])
     return series
+
+
+class Temperature(Observable):
+    """The kinetic temperature k_BT per step (from the kinetic tensor)."""
+
+    name = "temperature"
+    consumes = ("kinetic",)
+    units = {"temperature": "k_BT"}
+
+    def sampler(self, context):
+        masses = context.masses
+
+        def sample(previous, state):
+            return state, {"kinetic": kinetic_tensor(state.velocities, masses)}
+
+        return sample
+
+    def reduce(self, samples, scene):
+        return temperature_series(samples, scene)
+
+
+class Pressure(Observable):
+    """The virial pressure tensor per step, total and by part; under steady shear the
+    material functions in the run summary (jaxdpd.analysis.rheology)."""
+
+    name = "pressure"
+    needs_virial = True
+    consumes = ("kinetic", "virial")
+    units = {
+        "pressure": "k_BT/r_c^3",
+        "pressure_tensor": "k_BT/r_c^3",
+        "pressure_tensor_part/": "k_BT/r_c^3",
+    }
+
+    def sampler(self, context):
+        masses = context.masses
+
+        def sample(previous, state):
+            return state, {
+                "kinetic": kinetic_tensor(state.velocities, masses),
+                "virial": state.virial,
+            }
+
+        return sample
+
+    def reduce(self, samples, scene):
+        return pressure_series(samples, scene)
+
+    def summary_rows(self, scene, series, n_blocks):
+        """Under steady shear: η, Ψ1, Ψ2 of the fluid, the polymer and each part."""
+        rate = steady_shear_rate(scene)
+        if rate is None or not long_enough(series, "pressure_tensor", n_blocks):
+            return {}
+        rheology = shear_rheology(series, rate, n_blocks)
+        return {name: summary_row(estimate) for name, estimate in rheology.items()}

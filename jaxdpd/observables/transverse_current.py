@@ -30,6 +30,8 @@ import numpy as np
 
 from jaxdpd.analysis.dynamics import time_autocorrelation
 from jaxdpd.engine.trigonometry import sincos_turns
+from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.validation import SceneError
 
 # (velocity component a, wave-vector axis b), a ≠ b.
 TRANSVERSE_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
@@ -197,3 +199,31 @@ def kinematic_viscosity(
     blocks = samples[: n_blocks * block_length].reshape(n_blocks, block_length, *samples.shape[1:])
     correlations = np.stack([transverse_current_correlation(block) for block in blocks])
     return _viscosities(*_jackknife_rates(correlations, interval, window), k_squared)
+
+
+class TransverseCurrent(Observable):
+    """Per-step transverse momentum currents j(k, t) at k = 2πn/L, n = 1 ..
+    output.current_modes (cubic boxes)."""
+
+    name = "transverse_current"
+    settings = (Setting("current_modes", 3, minimum=1, integer=True),)
+
+    def check(self, scene):
+        lengths = scene.box.lengths
+        if len(set(lengths)) != 1:
+            raise SceneError(
+                "output.observables",
+                "'transverse_current' averages the six transverse pairs of a cubic box; "
+                f"box.lengths = {list(lengths)} is not cubic",
+            )
+
+    def sampler(self, context):
+        box, masses, modes = context.box, context.masses, context.scene.output.current_modes
+
+        def sample(previous, state):
+            currents = transverse_currents(
+                state.positions, state.velocities, masses, box.lengths, modes
+            )
+            return state, {"transverse_current": currents}
+
+        return sample

@@ -1,11 +1,14 @@
 """The run driver: jitted `lax.scan` chunks, error checks between chunks.
 
-After every chunk the driver reads the state's error flags:
+One loop runs a single state or a batch of replicas (every leaf with a leading
+replica axis, made by jaxdpd.run.ensemble), the batch vmapped over that axis in one
+jitted call.  After every chunk the driver reads the error flags (of every replica):
 - neighbour overflow: the buffers are reallocated from the needs the chunk recorded
-  and the chunk is rerun from its saved start state (no step lost or duplicated);
+  (a batch's replicas all to its largest need, so their shapes stay common) and the
+  chunk is rerun from its saved start state (no step lost or duplicated);
 - anything else (non-finite values, ...): the last good state (the chunk's start)
   is handed to `on_error` (e.g. written as a checkpoint) and `SimulationError` is
-  raised with a message saying what went wrong and what to change.
+  raised with a message saying what went wrong (in which replicas) and what to change.
 
 Before each chunk the driver asks `should_stop()`; a stop request (e.g. from
 `SignalGuard`, which turns SIGINT and SIGTERM into one) raises `RunInterrupted`
@@ -23,14 +26,17 @@ import jax
 import numpy as np
 
 from jaxdpd.engine import errors
-from jaxdpd.observables.thermo import reduce_samples
+from jaxdpd.observables import reduce_samples
+from jaxdpd.run import ensemble
 
 MAX_REALLOCATIONS = 8
 
 
 @dataclass
 class ChunkResult:
-    """What one chunk produced (host-side NumPy)."""
+    """What one chunk produced (host-side NumPy): the state (or batch) after it, its
+    first step, its length and its series (a batch's with a leading replica axis,
+    (B, steps, ...))."""
 
     state: object
     first_step: int
@@ -47,7 +53,7 @@ class RunInterrupted(Exception):
     """
 
     def __init__(self, state, signal_name: str):
-        super().__init__(f"interrupted by {signal_name} at step {int(state.step)}")
+        super().__init__(f"interrupted by {signal_name} at step {first_step(state)}")
         self.state = state
         self.signal_name = signal_name
 
@@ -103,30 +109,66 @@ class SignalGuard:
         self._previous = {}
 
 
+def first_step(state) -> int:
+    """The step counter of a state, or of a batch (its replicas step together)."""
+    return int(np.asarray(state.step).reshape(-1)[0])
+
+
 @partial(jax.jit, static_argnums=(0, 2))
 def _scan_chunk(step_fn, state, length: int):
     return jax.lax.scan(lambda carry, _: step_fn(carry), state, None, length=length)
 
 
+@partial(jax.jit, static_argnums=(0, 2))
+def _scan_batch(step_fn, batch, length: int):
+    def scan_one(state):
+        return jax.lax.scan(lambda carry, _: step_fn(carry), state, None, length=length)
+
+    return jax.vmap(scan_one)(batch)
+
+
+def _reallocate(simulation, state, needs):
+    """Buffers for `needs`; a batch's replicas all get its largest need (one shape),
+    and keep the batch's placement over devices."""
+    if not ensemble.is_batch(state):
+        return simulation.reallocate(state, needs)
+    replicas = ensemble.common_buffers(simulation, ensemble.unstack(state), needs)
+    resized = ensemble.stack(replicas)
+    sharded = len(state.positions.sharding.device_set) > 1
+    return ensemble.shard(resized) if sharded else resized
+
+
+def _describe(flags: np.ndarray) -> str:
+    """The error flags of a state, or of a batch's failed replicas by index."""
+    if flags.ndim == 0:
+        return errors.describe(int(flags))
+    return "; ".join(f"replica {k}: {errors.describe(int(f))}" for k, f in enumerate(flags) if f)
+
+
 def run_chunk(simulation, state, length: int):
-    """Advance `length` steps, reallocating neighbour buffers on overflow.
+    """Advance a state or a batch `length` steps, reallocating buffers on overflow.
 
     Returns:
-        (new state, per-step samples as NumPy arrays, number of reallocations).
+        (new state, per-step samples as NumPy arrays (a batch's (B, length, ...)),
+        number of reallocations).
     Raises:
-        SimulationError: on any error flag other than a neighbour overflow.
+        SimulationError: on any error flag other than a neighbour overflow (naming
+            the replicas of a batch that set one).
     """
+    scan = _scan_batch if ensemble.is_batch(state) else _scan_chunk
     for attempt in range(MAX_REALLOCATIONS + 1):
-        new_state, samples = _scan_chunk(simulation.step_fn, state, length)
-        flags = int(new_state.flags)
+        new_state, samples = scan(simulation.step_fn, state, length)
+        flags = np.asarray(new_state.flags)
         # Only a pure overflow is cured by larger buffers; with any other error the
         # configuration itself is broken and reallocating would only waste time.
-        if flags == errors.StepError.NEIGHBOR_OVERFLOW and attempt < MAX_REALLOCATIONS:
-            state = simulation.reallocate(state, simulation.buffer_needs(new_state))
+        broken = (flags & ~errors.StepError.NEIGHBOR_OVERFLOW) != 0
+        if flags.any() and not broken.any() and attempt < MAX_REALLOCATIONS:
+            state = _reallocate(simulation, state, simulation.buffer_needs(new_state))
             continue
-        if flags:
+        if flags.any():
+            first = first_step(state)
             raise errors.SimulationError(
-                f"step {int(state.step)}–{int(state.step) + length}: {errors.describe(flags)} "
+                f"step {first}–{first + length}: {_describe(flags)} "
                 f"(scene: integrator.dt = {simulation.scene.integrator.dt})"
             )
         return new_state, jax.tree.map(np.asarray, samples), attempt
@@ -141,20 +183,23 @@ def run(
     on_chunk: Callable[[ChunkResult], None] | None = None,
     on_error: Callable[[object, Exception], None] | None = None,
     should_stop: Callable[[], str | None] | None = None,
+    over_devices: bool = True,
 ):
-    """Run `steps` steps in chunks of `chunk`.
+    """Run a state, or every replica of a batch, `steps` steps in chunks of `chunk`.
 
     Args:
         simulation: from `jaxdpd.engine.build.build`.
-        state: the start state.
+        state: the start state, or a batch (jaxdpd.run.ensemble.replicate).
         steps: number of steps (≥ 0).
         chunk: steps per jitted scan (≥ 1).
         on_chunk: called with each ChunkResult (writing output, progress, ...).
         on_error: called with (last good state, error) before the error propagates.
         should_stop: asked before each chunk; a non-empty answer (the reason, e.g. a
             signal name) stops the run.
+        over_devices: spread a batch's replica axis over all local devices
+            (jaxdpd.run.ensemble.shard); no effect on a single state.
     Returns:
-        The final state.
+        The final state (or batch).
     Raises:
         SimulationError: a chunk set an error flag (see the module docstring).
         RunInterrupted: `should_stop` asked for a stop; carries the current state.
@@ -162,6 +207,8 @@ def run(
     if steps < 0 or chunk < 1:
         raise ValueError(f"run: steps = {steps} must be ≥ 0 and chunk = {chunk} ≥ 1")
     scene = simulation.scene
+    if over_devices and ensemble.is_batch(state):
+        state = ensemble.shard(state)
     done = 0
     while done < steps:
         reason = should_stop() if should_stop is not None else None
@@ -174,11 +221,9 @@ def run(
             if on_error is not None:
                 on_error(state, error)
             raise
-        series = reduce_samples(
-            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
-        )
+        series = reduce_samples(samples, scene)
         if on_chunk is not None:
-            on_chunk(ChunkResult(new_state, int(state.step), length, series))
+            on_chunk(ChunkResult(new_state, first_step(state), length, series))
         state = new_state
         done += length
     return state

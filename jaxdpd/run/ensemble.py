@@ -11,24 +11,28 @@ The batch axis is sharded over all local devices (`jax.sharding`) when B is a
 multiple of the device count, so the same call uses every GPU, or every CPU device
 of `XLA_FLAGS=--xla_force_host_platform_device_count=K`.
 
-Error handling follows jaxdpd.run.driver: after each chunk the flags of all replicas are
-read; an overflow anywhere reallocates every replica's buffers to the largest need
-(shapes must stay common) and reruns the chunk; any other error stops the run,
-naming the replicas.
+A batch runs through the same loop as a single state, `jaxdpd.run.driver.run`
+(vmapped over the replica axis, with the same overflow reallocation, error flags,
+checkpoint hooks and stop requests); this module only makes and takes apart batches.
 """
 
-from collections.abc import Callable, Sequence
-from functools import partial
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from jaxdpd.engine import errors
 from jaxdpd.geometry import flows
-from jaxdpd.observables.thermo import reduce_samples
-from jaxdpd.run.driver import MAX_REALLOCATIONS, ChunkResult
+
+# Rounds of reallocation before the replicas' neighbour buffers must agree in shape
+# (each round sizes every replica for the largest need of the round before).
+MAX_SHAPE_ROUNDS = 8
+
+
+def is_batch(state) -> bool:
+    """Whether `state` is a batch (its step counter has a replica axis)."""
+    return jnp.ndim(state.step) == 1
 
 
 def stack(states: Sequence) -> object:
@@ -42,10 +46,18 @@ def unstack(batch) -> list:
     return [jax.tree.map(lambda leaf, k=k: leaf[k], batch) for k in range(count)]
 
 
-def _common_buffers(simulation, states: list, minimum=None) -> list:
-    """Reallocate every replica's neighbour buffers to one shape that holds all."""
+def common_buffers(simulation, states: list, minimum=None) -> list:
+    """Reallocate every replica's neighbour buffers to one shape that holds all.
+
+    Args:
+        simulation: from jaxdpd.engine.build.build.
+        states: single-replica states.
+        minimum: buffer needs to hold at least (`simulation.buffer_needs` of a batch
+            after an overflow: its largest need of each kind is taken); None fits
+            each replica's own configuration first.
+    """
     needs = minimum
-    for _ in range(MAX_REALLOCATIONS + 1):
+    for _ in range(MAX_SHAPE_ROUNDS + 1):
         states = [simulation.reallocate(s, needs) for s in states]
         if len({simulation.buffer_shapes(s) for s in states}) == 1:
             return states
@@ -102,7 +114,7 @@ def replicate(
         if flow_rates is not None:
             replica = flows.set_flow_rate(replica, flow.kind, flow_rates[k])
         replicas.append(replica)
-    return stack(_common_buffers(simulation, replicas))
+    return stack(common_buffers(simulation, replicas))
 
 
 def batch_sharding(count: int):
@@ -121,78 +133,3 @@ def shard(batch):
     if sharding is None:
         return batch
     return jax.tree.map(lambda leaf: jax.device_put(leaf, sharding), batch)
-
-
-@partial(jax.jit, static_argnums=(0, 2))
-def _scan_batch(step_fn, batch, length: int):
-    def scan_one(state):
-        return jax.lax.scan(lambda carry, _: step_fn(carry), state, None, length=length)
-
-    return jax.vmap(scan_one)(batch)
-
-
-def run_chunk(simulation, batch, length: int):
-    """Advance every replica `length` steps (reallocating on overflow).
-
-    Returns:
-        (new batch, per-step samples (B, length, ...) as NumPy arrays).
-    Raises:
-        SimulationError: naming the replicas whose flags show any other error.
-    """
-    for attempt in range(MAX_REALLOCATIONS + 1):
-        new_batch, samples = _scan_batch(simulation.step_fn, batch, length)
-        flags = np.asarray(new_batch.flags)
-        overflowed = (flags & errors.StepError.NEIGHBOR_OVERFLOW) != 0
-        broken = (flags & ~errors.StepError.NEIGHBOR_OVERFLOW) != 0
-        if overflowed.any() and not broken.any() and attempt < MAX_REALLOCATIONS:
-            minimum = simulation.buffer_needs(new_batch)
-            resized = stack(_common_buffers(simulation, unstack(batch), minimum))
-            batch = shard(resized) if batch_sharding(len(flags)) is not None else resized
-            continue
-        if flags.any():
-            first = int(np.asarray(batch.step)[0])
-            described = "; ".join(
-                f"replica {k}: {errors.describe(int(f))}" for k, f in enumerate(flags) if f
-            )
-            raise errors.SimulationError(
-                f"step {first}–{first + length}: {described} "
-                f"(scene: integrator.dt = {simulation.scene.integrator.dt})"
-            )
-        return new_batch, jax.tree.map(np.asarray, samples)
-    raise AssertionError("unreachable")
-
-
-def run(
-    simulation,
-    batch,
-    steps: int,
-    chunk: int,
-    on_chunk: Callable[[ChunkResult], None] | None = None,
-    over_devices: bool = True,
-):
-    """Run every replica of `batch` for `steps` steps in chunks.
-
-    Args:
-        on_chunk: receives ChunkResults whose state is the batch and whose series
-            have a leading replica axis (B, chunk, ...).
-        over_devices: shard the replica axis over all local devices (see `shard`).
-    Returns:
-        The final batch.
-    """
-    if steps < 0 or chunk < 1:
-        raise ValueError(f"run: steps = {steps} must be ≥ 0 and chunk = {chunk} ≥ 1")
-    scene = simulation.scene
-    if over_devices:
-        batch = shard(batch)
-    done = 0
-    while done < steps:
-        length = min(chunk, steps - done)
-        first = int(np.asarray(batch.step)[0])
-        batch, samples = run_chunk(simulation, batch, length)
-        series = reduce_samples(
-            samples, scene.n_particles, scene.volume, scene.particle_momentum_conserved
-        )
-        if on_chunk is not None:
-            on_chunk(ChunkResult(batch, first, length, series))
-        done += length
-    return batch

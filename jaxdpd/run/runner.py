@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxdpd.analysis.rheology import summary_rows
 from jaxdpd.analysis.running_averages import RunningBlockAverages
 from jaxdpd.analysis.temperature_check import temperature_warning
 from jaxdpd.engine.build import build
@@ -38,15 +37,15 @@ from jaxdpd.io.checkpoint import (
     PRODUCTION,
     checkpoint_path,
     read_checkpoint_info,
-    read_checkpoint_state,
 )
 from jaxdpd.io.errors import RunFileError
 from jaxdpd.io.h5md import H5MDWriter, box_edges
 from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
+from jaxdpd.observables import scene_observables, summary_rows
 from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
 from jaxdpd.observables.chain_series import ideal_references
-from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.run import driver
+from jaxdpd.run.restore import restore
 from jaxdpd.scene import Scene
 
 # Components of the pressure tensor reported in the summary table.
@@ -183,21 +182,22 @@ class Run:
         self.user_hook, self.keep_series = on_chunk, keep_series
         self.handle_signals = handle_signals
         self.averages = RunningBlockAverages(scene.run.steps)
-        self.rdf = None
-        if "rdf" in scene.output.observables:
-            output = scene.output
-            self.rdf = RadialDistribution(
-                simulation.box, scene.n_particles, output.rdf_max, output.rdf_bins
-            )
+        # Host-side accumulators sampled at production chunk ends (g(r)), by name.
+        self.accumulators = {
+            component.name: accumulator
+            for component in scene_observables(scene)
+            if (accumulator := component.chunk_accumulator(simulation)) is not None
+        }
         self.series: dict[str, list] = {}
         self.chunk_ends = []  # (wall clock, step) of the first and latest production chunk
 
     # -- host-side accumulators ------------------------------------------------------
     def extras(self) -> dict:
         """Accumulators stored with a checkpoint (g(r) histogram)."""
-        if self.rdf is None:
-            return {}
-        return {"rdf_counts": self.rdf.counts, "rdf_samples": np.asarray(self.rdf.samples)}
+        extras = {}
+        for accumulator in self.accumulators.values():
+            extras.update(accumulator.extras())
+        return extras
 
     def restore_accumulators(self, info) -> None:
         """g(r) from the checkpoint `info` (a CheckpointInfo), after checking that it
@@ -208,9 +208,8 @@ class Run:
                 f"{info.path}: holds the accumulators {sorted(info.extras)}, this scene "
                 f"needs {sorted(expected)} (damaged or edited; g(r) cannot be re-derived)"
             )
-        if self.rdf is not None:
-            self.rdf.counts = np.array(info.extras["rdf_counts"], np.int64)
-            self.rdf.samples = int(info.extras["rdf_samples"])
+        for accumulator in self.accumulators.values():
+            accumulator.restore(info.extras)
 
     def replay(self, info) -> None:
         """Bring the block sums to the checkpoint `info`: the stored series of the
@@ -263,8 +262,8 @@ class Run:
         if self.keep_series:
             for name, values in result.series.items():
                 self.series.setdefault(name, []).append(values)
-        if self.rdf is not None:
-            self.rdf.sample(state.positions, state.box_state)
+        for accumulator in self.accumulators.values():
+            accumulator.observe(state)
         if self.writer is not None:
             self.writer.append_observables(result.first_step, result.series)
             every = scene.output.trajectory_every
@@ -329,15 +328,16 @@ class Run:
                 state = self._advance(state, end, self._on_production_chunk)
                 wall = time.perf_counter() - start
                 self.bar.finish()
-                rdf = self.rdf.result() if self.rdf is not None and self.rdf.samples else None
+                rdf = self.accumulators.get("rdf")
+                rdf = rdf.result() if rdf is not None and rdf.samples else None
                 correlations = self._correlations(state)
                 warnings = self._sanity_warnings()
                 if self.writer is not None:
                     if "temperature" in self.averages.names:
                         self.writer.write_warning("temperature", warnings.get("temperature"))
                     self.checkpoint(state, "end of run")
-                    if rdf is not None:
-                        self.writer.write_rdf(*rdf, self.rdf.samples)
+                    for accumulator in self.accumulators.values():
+                        accumulator.write(self.writer)
                     for name, (lag_times, values) in correlations.items():
                         self.writer.write_correlation(name, lag_times, values)
             except driver.RunInterrupted as interrupt:
@@ -454,8 +454,7 @@ def prepare_resume(path, steps: int | None = None, **options) -> Run:
                 f"production steps; give at least {done}"
             )
         scene = scene.replace(run={"steps": steps})
-    simulation = build(scene)
-    state = read_checkpoint_state(path, simulation.init_fn())
+    simulation, state = restore(path, build(scene))
     run = Run(simulation, state, None, info.phase, **options)
     run.restore_accumulators(info)
     run.writer = H5MDWriter.reopen(path, scene, info)

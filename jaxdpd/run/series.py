@@ -1,6 +1,5 @@
 """Run a simulation (one replica or a batch) and gather its time series on the host."""
 
-import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.run import driver, ensemble
@@ -9,9 +8,8 @@ from jaxdpd.run import driver, ensemble
 def collect(simulation, state, steps: int, chunk: int, on_chunk=None):
     """Run `steps` steps and concatenate every chunk's series.
 
-    A single state runs with jaxdpd.run.driver, a batch (leading replica axis, as made by
-    jaxdpd.run.ensemble.replicate) with jaxdpd.run.ensemble; they are told apart by the rank
-    of `state.step`.
+    A single state or a batch (leading replica axis, as made by
+    jaxdpd.run.ensemble.replicate) runs through jaxdpd.run.driver.run.
 
     Args:
         simulation: from jaxdpd.engine.build.build.
@@ -23,8 +21,6 @@ def collect(simulation, state, steps: int, chunk: int, on_chunk=None):
         (final state, name → NumPy array with time on axis 0, or on axis 1 after
         the replica axis of a batch).
     """
-    batched = jnp.ndim(state.step) == 1
-    run = ensemble.run if batched else driver.run
     parts = {}
 
     def keep(result):
@@ -33,6 +29,6 @@ def collect(simulation, state, steps: int, chunk: int, on_chunk=None):
         if on_chunk is not None:
             on_chunk(result)
 
-    state = run(simulation, state, steps, chunk, on_chunk=keep)
-    axis = 1 if batched else 0
+    state = driver.run(simulation, state, steps, chunk, on_chunk=keep)
+    axis = 1 if ensemble.is_batch(state) else 0
     return state, {name: np.concatenate(values, axis=axis) for name, values in parts.items()}

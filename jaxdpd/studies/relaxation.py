@@ -102,13 +102,11 @@ def stretch_and_relax(
         Relaxation.
     """
     name = end_to_end_series_name(simulation, species)
-    batched = np.ndim(state.positions) == 3
-    run = ensemble.run if batched else driver.run
     kind = simulation.scene.flow.kind
     if stretch_rate is not None:
         state = flows.set_flow_rate(state, kind, stretch_rate)
     stretched = []
-    state = run(
+    state = driver.run(
         simulation,
         state,
         stretch_steps,
@@ -117,14 +115,14 @@ def stretch_and_relax(
     )
     state = flows.set_flow_rate(state, kind, 0.0)
     parts = []
-    state = run(
+    state = driver.run(
         simulation, state, relax_steps, chunk, on_chunk=lambda r: parts.append(r.series[name])
     )
     curves = np.concatenate(parts, axis=-1).astype(np.float64)
     last = np.concatenate(stretched, axis=-1)[..., -1]
     times = simulation.scene.integrator.dt * np.arange(1, relax_steps + 1)
     kept = times >= fit_after
-    if not batched or curves.shape[0] == 1:
+    if not ensemble.is_batch(state) or curves.shape[0] == 1:
         curve = curves.reshape(-1)
         fit = fit_end_to_end_relaxation(times[kept], curve[kept])
         return Relaxation(times, curve, None, float(np.mean(last)), fit, state)

@@ -1,4 +1,4 @@
-"""Input checks shared by the polymer observables (run before tracing).
+"""Input checks shared by the polymer estimators and observables (run before tracing).
 
 Shapes and dtypes are static under ``jit``, so these checks also work on tracers.
 """
