@@ -8,6 +8,8 @@ observable's per-step samples equal ½ ⟨m v_x²⟩ of the states, through the 
 H5MD file.  The fixture unregisters them afterwards.
 """
 
+import pathlib
+import re
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -191,3 +193,15 @@ def test_toy_observable_through_the_runner(tmp_path):
     expected = 0.5 * np.mean(velocities[:, 0] ** 2)
     assert np.shape(series.value)[0] > 0
     np.testing.assert_allclose(series.value, expected, rtol=1e-14)
+
+
+def test_the_extending_guide_quotes_this_file():
+    """Every Python block of docs/extending.md is verbatim in this file, so the guide
+    shows code that these tests run."""
+    here = pathlib.Path(__file__)
+    guide = (here.parent.parent / "docs" / "extending.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", guide, flags=re.DOTALL)
+    assert len(blocks) >= 6  # three classes and their three register lines
+    source = here.read_text()
+    for block in blocks:
+        assert block.strip() in source, block
