@@ -14,8 +14,8 @@ by providing one.  For every method:
   bit-identical to the run that went straight on;
 - an unknown key in [solvent] is a SceneError naming the field.
 
-All runs go through the driver's jitted chunk (jaxdpd.run.driver.run_chunk, the
-ensemble's for the batch) with one chunk length, so each method compiles its step
+All runs go through the driver's jitted chunk (jaxdpd.run.driver.run_chunk, which
+vmaps a batch) with one chunk length, so each method compiles its step
 once per precision plus once vmapped.
 """
 
@@ -188,7 +188,7 @@ def test_vmapped_batch_equals_replicas(run):
     simulation, start = run.simulation, run.states[0]
     seeds = [int(start.seed) + 11, int(start.seed) + 12]
     batch = ensemble.replicate(simulation, start, seeds=seeds)
-    batch, _ = ensemble.run_chunk(simulation, batch, CHUNK)
+    batch, _, _ = driver.run_chunk(simulation, batch, CHUNK)
     replicas = ensemble.unstack(ensemble.replicate(simulation, start, seeds=seeds))
     alone = [advance(simulation, replica) for replica in replicas]
     for k, (together, single) in enumerate(zip(ensemble.unstack(batch), alone, strict=True)):

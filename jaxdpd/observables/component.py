@@ -29,6 +29,10 @@ lists in `output.observables`.  It owns, as attributes and methods of one object
     units            series leaf name -> reduced unit of its H5MD elements
     summary_rows(scene, series, n_blocks)   name -> (mean, standard error) rows of
                      the run summary (jaxdpd.analysis.rheology.summary_rows)
+    example_scene(precision)   a small valid scene dict that records it (by default a
+                     DPD fluid with short chains, `example_fluid`); the contract tests
+                     (tests/test_observable_contracts.py) run every registered
+                     observable through it
 
 `Observable` gives the defaults (no settings, nothing needed, no sampler, no
 reduction, no rows); a component overrides what it has.  `build` and the driver loop
@@ -132,6 +136,34 @@ class Observable:
         """Rows of the run summary: name -> (mean, standard error) as Python floats,
         from `series` (per-step samples or block means; see `long_enough`)."""
         return {}
+
+    def example_scene(self, precision: str = "float64") -> dict:
+        """A small valid scene (a few hundred particles) that records this observable;
+        a component whose `check` needs more (a body force, a setting) adds it."""
+        return example_fluid(precision, [self.name])
+
+
+def example_fluid(precision: str, observables: list) -> dict:
+    """300 DPD particles at ρ = 3 in a cubic box (edge 4.64), a fifth of them in
+    Hookean 4-bead chains of species "bead" (H = 10: springs short enough for the
+    spring-pair list's half-box limit), recording `observables` for 10 steps."""
+    return {
+        "seed": 5,
+        "precision": precision,
+        "particles": {
+            "density": 3.0,
+            "count": 300,
+            "species": [{"name": "bead", "fraction": 0.2}, {"name": "solvent", "fraction": 0.8}],
+        },
+        "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
+        "pair": {"a": 25.0},
+        "polymers": [
+            {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 10.0}}
+        ],
+        "integrator": {"dt": 0.04, "lambda": 0.65},
+        "run": {"steps": 10, "chunk": 5},
+        "output": {"observables": list(observables)},
+    }
 
 
 def long_enough(series: dict, name: str, n_blocks: int) -> bool:

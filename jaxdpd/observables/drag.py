@@ -163,6 +163,12 @@ class Drag(Observable):
     name = "drag"
     units = {"relative_velocity": "r_c/τ"}
 
+    def example_scene(self, precision="float64") -> dict:
+        """The example fluid with its chain beads pulled by a tagged body force."""
+        data = super().example_scene(precision)
+        data["body_force"] = {"kind": "tagged", "amplitude": 0.5, "species": "bead"}
+        return data
+
     def check(self, scene):
         if scene.body_force is None or scene.body_force.kind != "tagged":
             raise SceneError(

@@ -128,6 +128,12 @@ class Rdf(Observable):
             simulation.box, simulation.scene.n_particles, output.rdf_max, output.rdf_bins
         )
 
+    def example_scene(self, precision="float64") -> dict:
+        """The example fluid with g(r) up to 2 r_c (less than half its 4.64 edge)."""
+        data = super().example_scene(precision)
+        data["output"]["rdf_max"] = 2.0
+        return data
+
     def check(self, scene):
         heights = make_box(scene.box.kind, scene.box.lengths, scene.flow).cell_heights
         rdf_max = scene.output.rdf_max
