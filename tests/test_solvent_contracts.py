@@ -175,6 +175,21 @@ def test_float32_stays_float32(method):
     assert not wide, wide
 
 
+# Compiling the vmapped step of a pair-force method takes 35–50 s on 2 cores; for
+# these the check runs under -m slow (tests/test_ensemble.py checks a DPD batch
+# against its replicas in the default run).  A method registered later runs it
+# by default.
+SLOW_BATCH = ("dpd", "lowe_andersen", "hoogerbrugge_koelman")
+
+
+@pytest.mark.parametrize(
+    "run",
+    [
+        pytest.param(m, id=m.name, marks=[pytest.mark.slow] if m.name in SLOW_BATCH else [])
+        for m in METHODS
+    ],
+    indirect=True,
+)
 def test_vmapped_batch_equals_replicas(run):
     """Two replicas with different seeds, advanced as one vmapped batch, equal the
     same replicas advanced one at a time.
