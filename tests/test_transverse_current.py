@@ -8,12 +8,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxdpd.engine.trigonometry import sincos_turns
 from jaxdpd.observables.transverse_current import (
     TRANSVERSE_PAIRS,
     kinematic_viscosity,
     transverse_currents,
 )
+from jaxdpd.trigonometry import sincos_turns
 
 
 @pytest.mark.parametrize(("dtype", "tolerance"), [(jnp.float64, 4e-15), (jnp.float32, 3e-7)])

@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from jaxdpd.engine.precision import as_array
+from jaxdpd.precision import as_array
 
 
 def floating_array(values, name: str, min_ndim: int = 1):
     """``values`` as a JAX array of float32/float64 with at least ``min_ndim`` axes;
-    float64 input keeps float64 (jaxdpd.engine.precision.as_array)."""
+    float64 input keeps float64 (jaxdpd.precision.as_array)."""
     array = as_array(values)
     if not jnp.issubdtype(array.dtype, jnp.floating):
         raise ValueError(

@@ -23,7 +23,7 @@ replica at γ̇ = 0 gets NaN.  The run summary's rows come from the observables
 import jax.numpy as jnp
 
 from jaxdpd.analysis.statistics import block_average
-from jaxdpd.engine.precision import as_array
+from jaxdpd.precision import as_array
 
 MATERIAL_FUNCTIONS = ("viscosity", "psi1", "psi2")
 PART_PREFIX = "pressure_tensor_part/"

@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.engine.precision import as_array
+from jaxdpd.precision import as_array
 
 __all__ = ["block_average", "blocking_analysis", "inverse_variance_mean", "ratio_of_means"]
 

@@ -11,14 +11,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.engine.precision import enable_float64
+from jaxdpd.precision import enable_float64
 
 FLOAT_DTYPES = (jnp.float32, jnp.float64)
 
 
 def float_dtype(dtype, name: str = "dtype"):
     """Return ``dtype`` as a NumPy dtype, refusing anything but float32/float64; a
-    float64 request switches on JAX's 64-bit types (jaxdpd.engine.precision)."""
+    float64 request switches on JAX's 64-bit types (jaxdpd.precision)."""
     try:
         dt = np.dtype(dtype)
     except TypeError as err:

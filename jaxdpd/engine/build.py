@@ -29,7 +29,6 @@ import jax.numpy as jnp
 from jaxdpd.engine import errors, noise
 from jaxdpd.engine.buffers import NeighborBuffers
 from jaxdpd.engine.parameters import scene_parameters
-from jaxdpd.engine.precision import enable_float64
 from jaxdpd.engine.state import SimState
 from jaxdpd.forces.body_forces import cosine_body_force, tagged_body_force
 from jaxdpd.forces.bonds import chain_bond_forces
@@ -52,6 +51,7 @@ from jaxdpd.geometry.neighbors.spring_pair_list import (
 from jaxdpd.geometry.placement import initial_configuration
 from jaxdpd.observables import initial_observers, scene_observables
 from jaxdpd.observables.component import BuildContext
+from jaxdpd.precision import enable_float64
 from jaxdpd.run.resources import check_resources
 from jaxdpd.scene import Scene
 from jaxdpd.solvents import StepContext
@@ -283,7 +283,7 @@ def build(scene: Scene) -> Simulation:
 
     Cached per scene, so building an equal scene again reuses the compiled chunks.
     """
-    enable_float64()  # any scene: uint64 cell words, int64 keys (jaxdpd.engine.precision)
+    enable_float64()  # any scene: uint64 cell words, int64 keys (jaxdpd.precision)
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
     check_resources(scene, box)

@@ -43,8 +43,8 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 
-from jaxdpd.engine.registry import Registry
 from jaxdpd.forces.pair_laws import WCA_RANGE_FACTOR, wca_energy, wca_force_over_distance
+from jaxdpd.registry import Registry
 from jaxdpd.validation import REQUIRED, check_keys, read_choice, read_number
 
 # 1 − Q²/Q0² is floored here when a FENE spring is at or past Q0 (the step is

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 
-from jaxdpd.engine.registry import Registry
+from jaxdpd.registry import Registry
 from jaxdpd.validation import check_keys, read_choice, read_number
 
 

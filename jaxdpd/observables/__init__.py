@@ -8,7 +8,6 @@ series are made.  A new observable is one module plus one `register` line here.
 import jax
 import jax.numpy as jnp
 
-from jaxdpd.engine.registry import Registry
 from jaxdpd.observables.chain_correlators import Dynamics
 from jaxdpd.observables.chain_series import Conformation
 from jaxdpd.observables.component import Observable
@@ -18,6 +17,7 @@ from jaxdpd.observables.rdf import Rdf
 from jaxdpd.observables.spring_pairs import SpringPairs
 from jaxdpd.observables.thermo import Pressure, Temperature
 from jaxdpd.observables.transverse_current import TransverseCurrent
+from jaxdpd.registry import Registry
 
 OBSERVABLES: Registry[Observable] = Registry("observable", "output.observables")
 OBSERVABLES.register(Temperature())

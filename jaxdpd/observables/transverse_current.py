@@ -29,8 +29,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.analysis.dynamics import time_autocorrelation
-from jaxdpd.engine.trigonometry import sincos_turns
 from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.trigonometry import sincos_turns
 from jaxdpd.validation import SceneError
 
 # (velocity component a, wave-vector axis b), a ≠ b.

@@ -2,7 +2,7 @@
 lattice Boltzmann, each a `SolventMethod` component (jaxdpd.solvents.component)
 registered here under the name a scene gives as solvent.method."""
 
-from jaxdpd.engine.registry import Registry
+from jaxdpd.registry import Registry
 from jaxdpd.solvents.component import SolventMethod, SolventParameters, StepContext
 from jaxdpd.solvents.groot_warren import GrootWarren
 from jaxdpd.solvents.hoogerbrugge_koelman import HoogerbruggeKoelman

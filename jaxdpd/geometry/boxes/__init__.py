@@ -5,10 +5,10 @@ names the [flow] kind it carries (`flow_kind`, None for a box at rest) and build
 itself from the scene with `from_scene(lengths, flow)`.
 """
 
-from jaxdpd.engine.registry import Registry
 from jaxdpd.geometry.boxes.kraynik_reinelt import KraynikReineltBox, KraynikReineltState
 from jaxdpd.geometry.boxes.lees_edwards import LeesEdwardsBox, LeesEdwardsState
 from jaxdpd.geometry.boxes.periodic import PeriodicBox
+from jaxdpd.registry import Registry
 
 __all__ = [
     "BOXES",

@@ -41,8 +41,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.engine.precision import enable_float64
 from jaxdpd.geometry.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
+from jaxdpd.precision import enable_float64
 
 LANE_BITS = 32  # candidate slots per distance-test lane (uint32)
 WORD_BITS = 64  # bits per packed row word (uint64)

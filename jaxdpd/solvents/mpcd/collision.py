@@ -21,8 +21,8 @@ import math
 import jax.numpy as jnp
 
 from jaxdpd.engine import noise
-from jaxdpd.engine.trigonometry import sincos_turns
 from jaxdpd.solvents.mpcd.cells import bin_particles, cell_totals, grid_shift
+from jaxdpd.trigonometry import sincos_turns
 
 # Bit streams of the collision key: rotation axes (per cell, or per particle in the
 # Rouse variant) and the thermostat's Gaussian draws (per particle).  The grid shift
