@@ -135,24 +135,13 @@ class GrootWarren(component.SolventMethod):
 
     def example_scene(self, precision="float64") -> dict:
         """300 particles at ρ = 3 with 15 Hookean 4-bead chains, soft repulsion a = 25."""
-        return {
-            "seed": 5,
-            "precision": precision,
-            "particles": {
-                "density": 3.0,
-                "count": 300,
-                "species": [
-                    {"name": "bead", "fraction": 0.2},
-                    {"name": "solvent", "fraction": 0.8},
-                ],
-            },
-            "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
-            "pair": {"a": 25.0},
-            "polymers": [
-                {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 4.0}}
-            ],
-            "integrator": {"dt": 0.04, "lambda": 0.65},
-        }
+        return component.chain_solution_example(
+            precision,
+            {"method": "dpd", "kT": 1.0, "gamma": 4.5},
+            4.0,
+            pair={"a": 25.0},
+            integrator={"dt": 0.04, "lambda": 0.65},
+        )
 
     def advance(self, context):
         return velocity_verlet(context)

@@ -158,26 +158,9 @@ class HoogerbruggeKoelman(component.SolventMethod):
     def example_scene(self, precision="float64") -> dict:
         """300 particles at n = 3 in the default fluid (Π0 = 1/3, ω = 4/3, Δ = 1/3, δt = 1,
         started at its own temperature) with 15 Hookean 4-bead chains, K = 0.006."""
-        return {
-            "seed": 5,
-            "precision": precision,
-            "particles": {
-                "density": 3.0,
-                "count": 300,
-                "species": [
-                    {"name": "bead", "fraction": 0.2},
-                    {"name": "solvent", "fraction": 0.8},
-                ],
-            },
-            "solvent": {"method": "hoogerbrugge_koelman"},
-            "polymers": [
-                {
-                    "species": "bead",
-                    "beads": 4,
-                    "bond": {"law": "hookean", "spring_constant": 0.006},
-                }
-            ],
-        }
+        return component.chain_solution_example(
+            precision, {"method": "hoogerbrugge_koelman"}, 0.006
+        )
 
     def advance(self, context):
         scene = context.scene

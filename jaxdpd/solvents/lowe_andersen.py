@@ -460,24 +460,13 @@ class LoweAndersen(component.SolventMethod):
     def example_scene(self, precision="float64") -> dict:
         """300 particles at ρ = 3 with 15 Hookean 4-bead chains, soft repulsion a = 25,
         collision frequency Γ = 2."""
-        return {
-            "seed": 5,
-            "precision": precision,
-            "particles": {
-                "density": 3.0,
-                "count": 300,
-                "species": [
-                    {"name": "bead", "fraction": 0.2},
-                    {"name": "solvent", "fraction": 0.8},
-                ],
-            },
-            "solvent": {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 2.0},
-            "pair": {"a": 25.0},
-            "polymers": [
-                {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 4.0}}
-            ],
-            "integrator": {"dt": 0.04},
-        }
+        return component.chain_solution_example(
+            precision,
+            {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 2.0},
+            4.0,
+            pair={"a": 25.0},
+            integrator={"dt": 0.04},
+        )
 
     def advance(self, context):
         scene = context.scene
