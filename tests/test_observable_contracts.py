@@ -28,12 +28,6 @@ from jaxdpd.run.runner import simulate
 from jaxdpd.scene import Scene
 
 NAMES = OBSERVABLES.names()
-# Observables whose series are written without a unit today (gaps this file found;
-# strict: the test fails once the unit is added, so that the entry is removed).
-UNITLESS = {
-    "transverse_current": "transverse_current carries no units entry",
-    "spring_pairs": "spring_pairs/crossings and /histogram carry no units entry",
-}
 
 
 def merged_example(precision: str) -> dict:
@@ -105,15 +99,7 @@ def test_series_round_trip(recorded, name):
         np.testing.assert_array_equal(stored.value, memory, err_msg=series)
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=UNITLESS[n]))
-        if n in UNITLESS
-        else n
-        for n in NAMES
-    ],
-)
+@pytest.mark.parametrize("name", NAMES)
 def test_series_have_units(recorded, name):
     """Every per-step value dataset of the observable has a `reduced_unit` attribute."""
     path = recorded[1]

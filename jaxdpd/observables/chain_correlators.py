@@ -197,6 +197,13 @@ class Dynamics(Observable):
                 "measure the chains with 'conformation'",
             )
 
+    def memory(self, scene, itemsize):
+        """Two blocked correlators of 16 lags per level for each bead's 3 coordinates."""
+        chain_species = {polymer.species for polymer in scene.polymers}
+        beads = sum(s.count for s in scene.particles.species if s.name in chain_species)
+        levels = scene.output.correlator_levels
+        return {"output.correlator_levels": 2 * 16 * levels * beads * 3 * itemsize}
+
     def sampler(self, context):
         box, blocks, every = context.box, context.blocks, context.scene.output.correlator_every
 

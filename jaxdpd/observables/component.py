@@ -27,10 +27,11 @@ lists in `output.observables`.  It owns, as attributes and methods of one object
                      stored with a checkpoint) and `restore(extras)`, `write(writer)`
                      (its averages into the H5MD file at the end) and `result()`
     units            series leaf name -> reduced unit of its H5MD elements
+    memory(scene, itemsize)   {field: bytes} of its arrays, for the resource check
     summary_rows(scene, series, n_blocks)   name -> (mean, standard error) rows of
                      the run summary (jaxdpd.analysis.rheology.summary_rows)
     example_scene(precision)   a small valid scene dict that records it (by default a
-                     DPD fluid with short chains, `example_fluid`); the contract tests
+                     DPD chain solution, `example_fluid`); the contract tests
                      (tests/test_observable_contracts.py) run every registered
                      observable through it
 
@@ -44,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from jaxdpd.scene_examples import chain_solution_example
 from jaxdpd.validation import read_number
 
 
@@ -132,6 +134,11 @@ class Observable:
         """Series made from the consumed raw samples (host side, NumPy)."""
         return {}
 
+    def memory(self, scene, itemsize: int) -> dict:
+        """{field: bytes} of the arrays it holds beyond one value per step and chunk
+        (jaxdpd.run.resources: lower bounds checked before a build allocates)."""
+        return {}
+
     def summary_rows(self, scene, series: dict, n_blocks: int) -> dict:
         """Rows of the run summary: name -> (mean, standard error) as Python floats,
         from `series` (per-step samples or block means; see `long_enough`)."""
@@ -144,26 +151,18 @@ class Observable:
 
 
 def example_fluid(precision: str, observables: list) -> dict:
-    """300 DPD particles at ρ = 3 in a cubic box (edge 4.64), a fifth of them in
-    Hookean 4-bead chains of species "bead" (H = 10: springs short enough for the
-    spring-pair list's half-box limit), recording `observables` for 10 steps."""
-    return {
-        "seed": 5,
-        "precision": precision,
-        "particles": {
-            "density": 3.0,
-            "count": 300,
-            "species": [{"name": "bead", "fraction": 0.2}, {"name": "solvent", "fraction": 0.8}],
-        },
-        "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
-        "pair": {"a": 25.0},
-        "polymers": [
-            {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 10.0}}
-        ],
-        "integrator": {"dt": 0.04, "lambda": 0.65},
-        "run": {"steps": 10, "chunk": 5},
-        "output": {"observables": list(observables)},
-    }
+    """The particle solvents' chain solution (jaxdpd.scene_examples) in Groot–Warren
+    DPD, with Hookean springs H = 10 (short enough for the spring-pair list's
+    half-box limit), recording `observables` for 10 steps."""
+    return chain_solution_example(
+        precision,
+        {"method": "dpd", "kT": 1.0, "gamma": 4.5},
+        10.0,
+        pair={"a": 25.0},
+        integrator={"dt": 0.04, "lambda": 0.65},
+        run={"steps": 10, "chunk": 5},
+        output={"observables": list(observables)},
+    )
 
 
 def long_enough(series: dict, name: str, n_blocks: int) -> bool:

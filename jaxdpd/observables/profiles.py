@@ -47,6 +47,9 @@ class Profile(Observable):
     settings = (Setting("profile_bins", 20, minimum=1, integer=True),)
     units = {"density": "r_c^-3", "velocity_x": "r_c/τ"}
 
+    def memory(self, scene, itemsize):
+        return {"output.profile_bins": 3 * scene.run.chunk * scene.output.profile_bins * itemsize}
+
     def sampler(self, context):
         box, masses, bins = context.box, context.masses, context.scene.output.profile_bins
 

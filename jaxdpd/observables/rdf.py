@@ -134,6 +134,9 @@ class Rdf(Observable):
         data["output"]["rdf_max"] = 2.0
         return data
 
+    def memory(self, scene, itemsize):
+        return {"output.rdf_bins": 12 * scene.output.rdf_bins}  # histogram and edges
+
     def check(self, scene):
         heights = make_box(scene.box.kind, scene.box.lengths, scene.flow).cell_heights
         rdf_max = scene.output.rdf_max

@@ -85,6 +85,12 @@ class SpringPairs(Observable):
         Setting("spring_pair_max", lambda cutoff: cutoff / 3, minimum=0, exclusive_minimum=True),
     )
     needs_polymers = True
+    units = {"spring_pairs/": "1"}  # histogram and crossings: counts
+
+    def memory(self, scene, itemsize):
+        return {
+            "output.spring_pair_bins": scene.run.chunk * scene.output.spring_pair_bins * itemsize
+        }
 
     def sampler(self, context):
         search, dtype = context.spring_search, context.dtype

@@ -113,6 +113,9 @@ class Pressure(Observable):
     def reduce(self, samples, scene):
         return pressure_series(samples, scene)
 
+    def memory(self, scene, itemsize):
+        return {"run.chunk": 9 * scene.run.chunk * itemsize}  # a tensor per step
+
     def summary_rows(self, scene, series, n_blocks):
         """Under steady shear: η, Ψ1, Ψ2 of the fluid, the polymer and each part."""
         rate = steady_shear_rate(scene)

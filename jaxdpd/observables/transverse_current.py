@@ -207,6 +207,7 @@ class TransverseCurrent(Observable):
 
     name = "transverse_current"
     settings = (Setting("current_modes", 3, minimum=1, integer=True),)
+    units = {"transverse_current": "m r_c/τ"}  # Σ_i m_i v_ia e^{ik r_ib}: a momentum
 
     def check(self, scene):
         lengths = scene.box.lengths
@@ -216,6 +217,9 @@ class TransverseCurrent(Observable):
                 "'transverse_current' averages the six transverse pairs of a cubic box; "
                 f"box.lengths = {list(lengths)} is not cubic",
             )
+
+    def memory(self, scene, itemsize):
+        return {"output.current_modes": 2 * scene.run.chunk * scene.output.current_modes * itemsize}
 
     def sampler(self, context):
         box, masses, modes = context.box, context.masses, context.scene.output.current_modes

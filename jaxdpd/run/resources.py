@@ -22,6 +22,7 @@ import os
 
 import numpy as np
 
+from jaxdpd.observables import scene_observables
 from jaxdpd.validation import INT32_MAX
 
 # Mean particles per neighbour cell above which the cell list is refused: its distance
@@ -74,8 +75,7 @@ def estimated_bytes(scene, box) -> dict:
     box_volume = box.volume
     f = np.dtype(scene.precision).itemsize
     n = scene.n_particles
-    output, chunk = scene.output, scene.run.chunk
-    observables = set(output.observables)
+    chunk = scene.run.chunk
     # Positions, velocities, forces (3 floats each), image counters and species.
     sizes = {"particles.count": n * (9 * f + 16)}
     if scene.pair is not None or scene.solvent_component.uses_neighbor_list:
@@ -83,21 +83,12 @@ def estimated_bytes(scene, box) -> dict:
         if scene.neighbors.method == "cell_list":
             # The cell grid: at least three int32 member slots per cell.
             sizes["box.lengths"] = 12 * cell_count(scene, box)
-    # Each chunk's per-step series are stacked on device and copied to the host.
-    series = 1 + 9 * ("pressure" in observables)
-    sizes["run.chunk"] = chunk * series * f
-    if "rdf" in observables:
-        sizes["output.rdf_bins"] = 12 * output.rdf_bins
-    if "profile" in observables:
-        sizes["output.profile_bins"] = 3 * chunk * output.profile_bins * f
-    if "spring_pairs" in observables:
-        sizes["output.spring_pair_bins"] = chunk * output.spring_pair_bins * f
-    if "transverse_current" in observables:
-        sizes["output.current_modes"] = 2 * chunk * output.current_modes * f
-    if "dynamics" in observables:
-        chain_species = {polymer.species for polymer in scene.polymers}
-        beads = sum(s.count for s in scene.particles.species if s.name in chain_species)
-        sizes["output.correlator_levels"] = 2 * 16 * output.correlator_levels * beads * 3 * f
+    # Each chunk's per-step series are stacked on device and copied to the host: one
+    # value per step at least, and what each observable holds beyond it.
+    sizes["run.chunk"] = chunk * f
+    for component in scene_observables(scene):
+        for field, size in component.memory(scene, f).items():
+            sizes[field] = sizes.get(field, 0) + size
     sizes.update(scene.solvent_component.memory(scene, box_volume, f))
     return sizes
 

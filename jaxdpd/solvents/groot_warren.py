@@ -15,6 +15,7 @@ import jax.numpy as jnp
 
 from jaxdpd.engine import noise
 from jaxdpd.engine.integrators import modified_velocity_verlet
+from jaxdpd.scene_examples import chain_solution_example
 from jaxdpd.solvents import component
 from jaxdpd.validation import read_choice, read_number
 
@@ -135,7 +136,7 @@ class GrootWarren(component.SolventMethod):
 
     def example_scene(self, precision="float64") -> dict:
         """300 particles at ρ = 3 with 15 Hookean 4-bead chains, soft repulsion a = 25."""
-        return component.chain_solution_example(
+        return chain_solution_example(
             precision,
             {"method": "dpd", "kT": 1.0, "gamma": 4.5},
             4.0,

@@ -22,6 +22,7 @@ import jax.numpy as jnp
 
 from jaxdpd.engine import noise
 from jaxdpd.engine.integrators import collide_and_stream
+from jaxdpd.scene_examples import chain_solution_example
 from jaxdpd.solvents import component
 from jaxdpd.validation import read_number
 
@@ -158,9 +159,7 @@ class HoogerbruggeKoelman(component.SolventMethod):
     def example_scene(self, precision="float64") -> dict:
         """300 particles at n = 3 in the default fluid (Π0 = 1/3, ω = 4/3, Δ = 1/3, δt = 1,
         started at its own temperature) with 15 Hookean 4-bead chains, K = 0.006."""
-        return component.chain_solution_example(
-            precision, {"method": "hoogerbrugge_koelman"}, 0.006
-        )
+        return chain_solution_example(precision, {"method": "hoogerbrugge_koelman"}, 0.006)
 
     def advance(self, context):
         scene = context.scene

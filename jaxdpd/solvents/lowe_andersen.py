@@ -59,6 +59,7 @@ from jax_md import dataclasses as jmd_dataclasses
 from jaxdpd.engine import noise
 from jaxdpd.engine.integrators import thermalized_velocity_verlet
 from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.scene_examples import chain_solution_example
 from jaxdpd.solvents import component
 from jaxdpd.solvents.groot_warren import velocity_verlet
 from jaxdpd.validation import read_number
@@ -460,7 +461,7 @@ class LoweAndersen(component.SolventMethod):
     def example_scene(self, precision="float64") -> dict:
         """300 particles at ρ = 3 with 15 Hookean 4-bead chains, soft repulsion a = 25,
         collision frequency Γ = 2."""
-        return component.chain_solution_example(
+        return chain_solution_example(
             precision,
             {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 2.0},
             4.0,
