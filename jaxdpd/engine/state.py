@@ -1,12 +1,12 @@
 """The simulation state: a pytree that a step function maps to its successor."""
 
 import jax.numpy as jnp
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.geometry.neighbors import PairList
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class SimState:
     """Everything a step needs, and nothing module-level.
 

@@ -55,13 +55,14 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax_md import dataclasses as jmd_dataclasses
+
+from jaxdpd import pytree
 
 SPRING_REPULSION_LAWS = ("exponential", "linear")
 
 
 # -- closest approach ------------------------------------------------------------------
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class SegmentApproach:
     """Closest approach of pairs of segments (traced arrays, batch shape (...)).
 
@@ -301,7 +302,7 @@ def spring_vectors(bound_box, positions, table: SpringTable):
     return springs, midpoints
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class SpringPairGeometry:
     """The closest approaches of listed spring pairs (traced, shape (P,) each).
 

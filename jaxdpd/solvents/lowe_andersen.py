@@ -54,8 +54,8 @@ from typing import ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.engine import noise
 from jaxdpd.engine.integrators import thermalized_velocity_verlet
 from jaxdpd.forces.pair_sums import pair_geometry
@@ -73,7 +73,7 @@ PRIORITY_STREAM = 3
 _VIRIAL_COMPONENTS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class LoweAndersenRecord:
     """What the thermalisation of one step did (kept in SimState.solvent_state).
 

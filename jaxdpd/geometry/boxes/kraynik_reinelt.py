@@ -56,8 +56,8 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 import numpy as np
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.geometry.boxes.kraynik_reinelt_lattice import KraynikReineltCase, kraynik_reinelt_case
 from jaxdpd.geometry.boxes.lees_edwards import SPRING_LIMIT, minimum_image_springs
 from jaxdpd.geometry.boxes.periodic import fold_edge
@@ -67,7 +67,7 @@ from jaxdpd.geometry.boxes.periodic import fold_edge
 HEIGHT_MARGIN = 1e-6
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class KraynikReineltState:
     """Traced state of a Kraynik–Reinelt box.
 

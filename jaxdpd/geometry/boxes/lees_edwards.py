@@ -39,8 +39,8 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import jax.numpy as jnp
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.geometry.boxes.periodic import fold_edge
 
 # A spring component above this fraction of the box edge stops the run (see
@@ -71,7 +71,7 @@ def minimum_image_springs(box, separation, image_difference):
     return springs, box.springs_past_half_box(separation, springs, image_difference)
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class LeesEdwardsState:
     """Traced state of a Lees–Edwards box.
 

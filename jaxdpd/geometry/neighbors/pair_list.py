@@ -4,10 +4,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import jax.numpy as jnp
-from jax_md import dataclasses as jmd_dataclasses
+
+from jaxdpd import pytree
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class PairList:
     """Candidate pairs within cutoff + skin, with what is needed to refresh them.
 
@@ -32,7 +33,7 @@ class PairList:
     overflow: jnp.ndarray
     rebuilds: jnp.ndarray
     backend: object = None
-    cell_capacity: int = jmd_dataclasses.static_field(default=0)
+    cell_capacity: int = pytree.static_field(default=0)
 
     @property
     def capacity(self) -> int:

@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.engine import errors
 from jaxdpd.forces.spring_repulsion import SpringTable, spring_pair_geometry, spring_vectors
 from jaxdpd.geometry.neighbors.cell_list import cell_list_search
@@ -45,7 +45,7 @@ LENGTH_HEADROOM = 1.1
 LENGTH_QUANTUM = 1.0 / 16.0
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class SpringPairList:
     """Candidate spring pairs and what is needed to refresh and resize them.
 
@@ -58,7 +58,7 @@ class SpringPairList:
 
     pairs: PairList
     longest: jnp.ndarray
-    listed_length: float = jmd_dataclasses.static_field(default=0.0)
+    listed_length: float = pytree.static_field(default=0.0)
 
     @property
     def overflow(self):

@@ -30,14 +30,15 @@ on (jaxdpd.solvents.lattice_boltzmann.fluid).
 
 import jax.numpy as jnp
 import numpy as np
-from jax_md import dataclasses as jmd_dataclasses
+
+from jaxdpd import pytree
 
 # A NumPy constant: a JAX array made at import would compile (reading a scene imports
 # this module, and must compile nothing).
 _CORNERS = np.asarray([[dx, dy, dz] for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)], np.int32)
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class Stencil:
     """The 8 nodes around each bead and their trilinear weights.
 

@@ -1,10 +1,11 @@
 """The lattice-Boltzmann fluid's part of the simulation state (SimState.solvent_state)."""
 
 import jax.numpy as jnp
-from jax_md import dataclasses as jmd_dataclasses
+
+from jaxdpd import pytree
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class FluidState:
     """A lattice-Boltzmann fluid between two LB steps.
 

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.engine import noise
 
 # Bit streams of the per-collision random numbers (site 0 of the collision key); the
@@ -95,7 +95,7 @@ def grid_shift(key, cell_size: float, dtype):
     ) * jnp.asarray(cell_size, dtype)
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class CellBinning:
     """Which cell each particle is in, for one collision (a pytree).
 
