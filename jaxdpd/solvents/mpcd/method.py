@@ -46,7 +46,7 @@ class MPCD(component.SolventMethod):
 
     name = "mpcd"
     fields = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
-    flows = ("shear",)
+    flows = ("shear", "planar_elongation")
     heating_advice = (
         "reduce solvent.collision_time, lower the flow rate, or set solvent.thermostat "
         "= 'maxwell_boltzmann_scaling' (SRD without a thermostat heats under flow)"
