@@ -23,7 +23,7 @@ Tolerances: 4 standard errors of 20 block averages, combined in quadrature.
 import numpy as np
 import pytest
 from mpcd_scenes import pure_solvent
-from test_planar_elongation import fractional_coordinates, mean_and_error
+from test_planar_elongation import assert_homogeneous, bin_counts_and_temperatures, mean_and_error
 
 from jaxdpd.engine.build import build
 from jaxdpd.geometry.boxes.kraynik_reinelt_lattice import kraynik_reinelt_case
@@ -33,7 +33,6 @@ from jaxdpd.scene import Scene
 RATE = 0.2
 PERIODS = 200
 CHUNK = 500
-BINS = 3
 
 
 def cell_shape_factor(case: int, samples: int = 20000) -> float:
@@ -152,19 +151,10 @@ def test_two_hundred_periods_keep_temperature_density_and_momentum(runs):
         assert int(state.flags) == 0
         velocities = np.asarray(state.velocities, np.float64)
         assert np.abs(velocities.sum(axis=0)).max() < 1e-5 * np.abs(velocities).sum()
-        fractions = fractional_coordinates(box, state.box_state, state.positions)
-        assert np.all(np.abs(fractions) <= 0.5 + 1e-5)
-        cells = np.floor((np.clip(fractions[:, [0, 2]], -0.5, 0.5 - 1e-7) + 0.5) * BINS)
-        cell = (cells[:, 0] * BINS + cells[:, 1]).astype(int)
-        count = np.bincount(cell, minlength=BINS * BINS)
-        kinetic = np.bincount(cell, np.sum(velocities**2, axis=1), minlength=BINS * BINS)
+        count, temperature = bin_counts_and_temperatures(box, state)
         counts.append(count)
-        temperatures.append(kinetic / (3 * np.maximum(count, 1)))
-    density, density_error = mean_and_error(counts)
-    assert np.all(np.abs(density - n / BINS**2) < 4 * density_error), (density, density_error)
-    temperature, temperature_error = mean_and_error(temperatures)
-    overall = np.sum(density * temperature) / np.sum(density)
-    assert np.all(np.abs(temperature - overall) < 4 * temperature_error), temperature
+        temperatures.append(temperature)
+    assert_homogeneous(counts, temperatures, n)
     quarter = len(series["temperature"]) // 4
     first = mean_and_error(series["temperature"][:quarter])
     last = mean_and_error(series["temperature"][-quarter:])
