@@ -228,6 +228,7 @@ def mpcd_cycle(
     dtype,
     masses=None,
     with_virial: bool = False,
+    closed_system: bool = True,
 ):
     """One MPCD cycle (Mussawisade et al. 2005, §II): streaming over the collision time
     h, then a collision.
@@ -248,7 +249,8 @@ def mpcd_cycle(
     "streaming", the free-flight drift of the solvent's kinetic stress
     (`free_flight_stress`; the monomers' kinetic stress is sampled at the collision).
     In planar elongation the round-off of the total peculiar momentum is removed
-    after the collision (flows.EXPONENTIAL_MOMENTUM_DRIFT).
+    after the collision (flows.EXPONENTIAL_MOMENTUM_DRIFT) if `closed_system` (the
+    collision conserves momentum; not the Rouse variant, whose bath does not).
 
     Args:
         box: the static box (bound to the state's box_state; its `wrap` moves
@@ -263,11 +265,12 @@ def mpcd_cycle(
         dtype: floating dtype.
         masses: (N,) masses or None.
         with_virial: record the virial parts.
+        closed_system: the collision conserves the total momentum.
     Returns:
         `step(state) -> state`, one collision per step; time advances by h.
     """
     h = jnp.asarray(collision_time, dtype)
-    remove_drift = box.flow_kind in flows.EXPONENTIAL_MOMENTUM_DRIFT
+    remove_drift = closed_system and box.flow_kind in flows.EXPONENTIAL_MOMENTUM_DRIFT
 
     def stream_monomers(state, first, stop):
         rows = slice(first, stop)

@@ -71,4 +71,5 @@ def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dty
         dtype,
         masses,
         with_virial,
+        closed_system=solvent.collision == "cell",
     )
