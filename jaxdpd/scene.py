@@ -22,7 +22,7 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
                 = 1..4 (lattice of thesis table 3.27, default 1); needs a
                 Kraynik–Reinelt box and a solvent method with an elongation step
-                ("dpd", "lowe_andersen")
+                ("dpd", "lowe_andersen", "mpcd"; MPCD cells: docs/solvent_flows/mpcd.md)
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both

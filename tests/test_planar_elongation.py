@@ -67,6 +67,29 @@ def fractional_coordinates(box, box_state, positions):
     return np.linalg.solve(lattice, (np.asarray(positions) - np.asarray(box.centre)).T).T
 
 
+def bin_counts_and_temperatures(box, state, bins=BINS):
+    """Particle count and peculiar temperature in each of bins × bins bins of the
+    in-plane fractional coordinates of one state (all particles must be in the cell)."""
+    fractions = fractional_coordinates(box, state.box_state, state.positions)
+    assert np.all(np.abs(fractions) <= 0.5 + 1e-5)
+    cells = np.floor((np.clip(fractions[:, [0, 2]], -0.5, 0.5 - 1e-7) + 0.5) * bins)
+    cell = (cells[:, 0] * bins + cells[:, 1]).astype(int)
+    velocities = np.asarray(state.velocities, np.float64)
+    count = np.bincount(cell, minlength=bins * bins)
+    kinetic = np.bincount(cell, np.sum(velocities**2, axis=1), minlength=bins * bins)
+    return count, kinetic / (3 * np.maximum(count, 1))
+
+
+def assert_homogeneous(counts, temperatures, n, bins=BINS):
+    """Density and temperature uniform over the bins: block means over samples within
+    4 standard errors of n/bins² and of the density-weighted mean temperature."""
+    density, density_error = mean_and_error(counts)
+    assert np.all(np.abs(density - n / bins**2) < 4 * density_error), (density, density_error)
+    temperature, temperature_error = mean_and_error(temperatures)
+    overall = np.sum(density * temperature) / np.sum(density)
+    assert np.all(np.abs(temperature - overall) < 4 * temperature_error), temperature
+
+
 @pytest.fixture(scope="module")
 def elongated_batch():
     """Three replicas of one fluid at ε̇ = 0, 0.1 and 1.0 (float32), run until the
@@ -107,22 +130,12 @@ def test_particles_stay_in_the_cell_and_the_fluid_stays_homogeneous(elongated_ba
     counts, temperatures = [], []
     for replicas in states:
         state = replicas[-1]
-        fractions = fractional_coordinates(box, state.box_state, state.positions)
-        assert fractions.shape == (n, 3)
-        assert np.all(np.abs(fractions) <= 0.5 + 1e-5)
+        assert state.positions.shape == (n, 3)
         assert len(np.unique(np.asarray(state.positions), axis=0)) == n
-        cells = np.floor((np.clip(fractions[:, [0, 2]], -0.5, 0.5 - 1e-7) + 0.5) * BINS)
-        cell = (cells[:, 0] * BINS + cells[:, 1]).astype(int)
-        velocities = np.asarray(state.velocities, np.float64)
-        count = np.bincount(cell, minlength=BINS * BINS)
-        kinetic = np.bincount(cell, np.sum(velocities**2, axis=1), minlength=BINS * BINS)
+        count, temperature = bin_counts_and_temperatures(box, state)
         counts.append(count)
-        temperatures.append(kinetic / (3 * np.maximum(count, 1)))
-    density, density_error = mean_and_error(counts)
-    assert np.all(np.abs(density - n / BINS**2) < 4 * density_error), (density, density_error)
-    temperature, temperature_error = mean_and_error(temperatures)
-    overall = np.sum(density * temperature) / np.sum(density)
-    assert np.all(np.abs(temperature - overall) < 4 * temperature_error), temperature
+        temperatures.append(temperature)
+    assert_homogeneous(counts, temperatures, n)
 
 
 def test_neighbour_lists_hold_every_pair_once_at_every_strain(elongated_batch):

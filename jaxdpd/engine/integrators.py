@@ -228,6 +228,7 @@ def mpcd_cycle(
     dtype,
     masses=None,
     with_virial: bool = False,
+    closed_system: bool = True,
 ):
     """One MPCD cycle (Mussawisade et al. 2005, §II): streaming over the collision time
     h, then a collision.
@@ -247,6 +248,9 @@ def mpcd_cycle(
     over the cycle, as for the Hoogerbrugge–Koelman impulses); in a flowing box
     "streaming", the free-flight drift of the solvent's kinetic stress
     (`free_flight_stress`; the monomers' kinetic stress is sampled at the collision).
+    In planar elongation the round-off of the total peculiar momentum is removed
+    after the collision (flows.EXPONENTIAL_MOMENTUM_DRIFT) if `closed_system` (the
+    collision conserves momentum; not the Rouse variant, whose bath does not).
 
     Args:
         box: the static box (bound to the state's box_state; its `wrap` moves
@@ -261,10 +265,12 @@ def mpcd_cycle(
         dtype: floating dtype.
         masses: (N,) masses or None.
         with_virial: record the virial parts.
+        closed_system: the collision conserves the total momentum.
     Returns:
         `step(state) -> state`, one collision per step; time advances by h.
     """
     h = jnp.asarray(collision_time, dtype)
+    remove_drift = closed_system and box.flow_kind in flows.EXPONENTIAL_MOMENTUM_DRIFT
 
     def stream_monomers(state, first, stop):
         rows = slice(first, stop)
@@ -320,6 +326,8 @@ def mpcd_cycle(
         velocities, collision_virial = collide(
             new_bound, positions, velocities, noise.step_key(state.seed, collision)
         )
+        if remove_drift:
+            velocities = flows.remove_momentum_drift(new_bound, velocities, masses)
         if collision_virial is not None:
             virial["collision"] = collision_virial / h
         if with_virial and bound.velocity_gradient is not None:

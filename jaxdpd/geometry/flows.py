@@ -36,6 +36,12 @@ import jax.numpy as jnp
 # The box-state field holding the rate of each flow kind (scene [flow] kind).
 RATE_FIELDS = {"shear": "shear_rate", "planar_elongation": "elongation_rate"}
 
+# Flow kinds whose gradient has a compressing eigenvalue, so the round-off of Σ m c
+# grows as e^{ε̇ t} (module docstring): a step that conserves momentum and does not
+# otherwise call `remove_momentum_drift` (MPCD) must call it there.  In shear
+# (L² = 0) it grows only linearly.
+EXPONENTIAL_MOMENTUM_DRIFT = frozenset({"planar_elongation"})
+
 
 def drift_velocity(bound_box, positions, velocities):
     """dr/dt = c + u(r): peculiar plus streaming velocity, (N, 3)."""

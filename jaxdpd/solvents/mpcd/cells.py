@@ -17,8 +17,9 @@ boundary (y = 0 ≡ L_y) holds particles from below as their images above, displ
 the offset Δ in x and moving faster by γ̇ L_y.  Velocities are stored peculiar
 (c = v − u(r), SLLOD, jaxdpd.geometry.flows); the collision acts on the laboratory velocities
 of the images (`CellBinning.frame_velocities`) and adds the change of velocity to the
-stored ones.  `bin_particles` is the only place the box geometry enters the
-collision.
+stored ones.  `bin_particles` (and, for the Kraynik–Reinelt box, its lattice-cell
+twin in jaxdpd.solvents.mpcd.lattice_cells) is the only place the box geometry enters
+the collision.
 """
 
 import math

@@ -210,6 +210,7 @@ def srd_collision(
     with_virial: bool,
     dtype,
     random_shift: bool = True,
+    binning=bin_particles,
 ):
     """The SRD collision of all particles, optionally with the MBS thermostat.
 
@@ -225,6 +226,9 @@ def srd_collision(
             scenes); False gives the original fixed-grid SRD (Malevanets & Kapral
             1999), which is not Galilean invariant at small mean free paths (Ihle &
             Kroll 2001) — a reference for tests.
+        binning: how the box's particles are sorted into cells
+            (jaxdpd.solvents.mpcd.cells.bin_particles, or the lattice cells of
+            jaxdpd.solvents.mpcd.lattice_cells).
     Returns:
         `collide(bound_box, positions, velocities, key) -> (velocities, virial)`:
         the box bound to its state at the collision, positions (N, 3) wrapped, key the
@@ -239,16 +243,16 @@ def srd_collision(
             shift = grid_shift(key, grid.cell_size, dtype)
         else:
             shift = jnp.zeros(3, dtype)
-        binning = bin_particles(grid, bound_box, positions, velocities, shift)
+        binned = binning(grid, bound_box, positions, velocities, shift)
         relative, rotated = srd_relative_velocities(
-            binning.frame_velocities, masses, binning.cell, n_cells, key, cos_angle, sin_angle
+            binned.frame_velocities, masses, binned.cell, n_cells, key, cos_angle, sin_angle
         )
         if thermostat_kT is not None:
             rotated = maxwell_boltzmann_scaling(
-                rotated, masses, binning.cell, n_cells, key, thermostat_kT
+                rotated, masses, binned.cell, n_cells, key, thermostat_kT
             )
         changes = rotated - relative
-        virial = collisional_virial(binning.local, changes, masses) if with_virial else None
+        virial = collisional_virial(binned.local, changes, masses) if with_virial else None
         return velocities + changes, virial
 
     return collide

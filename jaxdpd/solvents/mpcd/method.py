@@ -8,6 +8,9 @@ every particle must be a monomer); particles per cell ρ = particles.density · 
 Solvent particles stream freely; monomers move by velocity Verlet with integrator.dt =
 h_p (h/h_p a whole number, default h_p = h) and join the collisions with their species
 masses.  Only the monomers feel forces: the force kernel covers their index range.
+Flows: Lees–Edwards shear (cells.bin_particles) and planar elongation, whose cells
+are those of the Kraynik–Reinelt lattice coordinates (lattice_cells;
+docs/solvent_flows/mpcd.md: there η̄1 = 4η_kin + 2κη_coll, not 4 × the shear η).
 """
 
 import math
@@ -46,7 +49,7 @@ class MPCD(component.SolventMethod):
 
     name = "mpcd"
     fields = ("cell_size", "rotation_angle", "collision_time", "thermostat", "collision")
-    flows = ("shear",)
+    flows = ("shear", "planar_elongation")
     heating_advice = (
         "reduce solvent.collision_time, lower the flow rate, or set solvent.thermostat "
         "= 'maxwell_boltzmann_scaling' (SRD without a thermostat heats under flow)"

@@ -9,8 +9,13 @@ collisional virial only when the pressure is observed.
 import math
 
 from jaxdpd.engine.integrators import modified_velocity_verlet, mpcd_cycle
-from jaxdpd.solvents.mpcd.cells import collision_grid
+from jaxdpd.solvents.mpcd.cells import bin_particles, collision_grid
 from jaxdpd.solvents.mpcd.collision import rouse_collision, srd_collision
+from jaxdpd.solvents.mpcd.lattice_cells import bin_in_lattice
+
+# Boxes whose collision cells are not the Cartesian grid of
+# jaxdpd.solvents.mpcd.cells (by box name): the deforming Kraynik–Reinelt lattice.
+LATTICE_BINNINGS = {"kraynik_reinelt": bin_in_lattice}
 
 
 def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dtype):
@@ -18,7 +23,7 @@ def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dty
 
     Args:
         scene: the Scene (solvent.method = "mpcd").
-        box: its periodic box.
+        box: its box (at rest, Lees–Edwards or Kraynik–Reinelt).
         interactions: the force kernel over the monomer rows
             (jaxdpd.engine.build.force_kernel).
         masses: (N,) masses or None (unit masses).
@@ -34,7 +39,10 @@ def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dty
     else:
         thermostat_kT = solvent.kT if solvent.thermostat == "maxwell_boltzmann_scaling" else None
         grid = collision_grid(scene.box.lengths, solvent.cell_size)
-        collide = srd_collision(grid, alpha, masses, thermostat_kT, with_virial, dtype)
+        binning = LATTICE_BINNINGS.get(box.name, bin_particles)
+        collide = srd_collision(
+            grid, alpha, masses, thermostat_kT, with_virial, dtype, binning=binning
+        )
     first, stop = monomers
     monomer_step, monomer_range = None, None
     if stop > first:
@@ -63,4 +71,5 @@ def mpcd_step(scene, box, interactions, masses, monomers, with_virial: bool, dty
         dtype,
         masses,
         with_virial,
+        closed_system=solvent.collision == "cell",
     )
