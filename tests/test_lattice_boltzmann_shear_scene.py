@@ -156,13 +156,19 @@ def test_chain_and_sheared_fluid_conserve_momentum_to_round_off():
     np.testing.assert_allclose(total(state)[0], start[0], rtol=0, atol=1e-12 * scale(state))
 
 
-def test_oscillatory_shear_runs_from_python():
-    """The same chain in oscillatory shear γ̇(t) = γ̇₀ cos ωt, built from Python: the
-    box clock sets the phase, the fluid stays valid and the beads' y momentum plus the
-    fluid's is conserved to round-off."""
-    data = sheared_chain().to_dict()
-    data["flow"] = {"kind": "shear", "shear_rate": 0.2, "oscillation_frequency": 2.0}
-    scene = Scene.from_dict(data)
+def test_oscillatory_shear_runs_from_a_scene_file_in_python(tmp_path):
+    """The same chain in oscillatory shear γ̇(t) = γ̇₀ cos ωt, read from a TOML file and
+    run from Python: the box clock sets the phase (offset ∫ γ̇ L_y dt = γ̇₀ L_y
+    sin(ωt)/ω), the fluid stays valid and the y momentum of beads plus fluid is
+    conserved to round-off."""
+    scene_file = tmp_path / "oscillatory.toml"
+    scene_file.write_text(
+        SHEARED_CHAIN_TOML.replace(
+            "shear_rate = 0.2", "shear_rate = 0.2\noscillation_frequency = 2.0"
+        )
+    )
+    scene = Scene.from_toml(scene_file)
+    assert scene.flow.oscillation_frequency == 2.0
     simulation = build(scene)
     fluid = fluid_parameters(scene)
     state = simulation.init_fn()
