@@ -51,25 +51,8 @@ def linear_translate(layer, shift):
     return (1 - fraction) * layer[..., source, :] + fraction * layer[..., (source + 1) % n, :]
 
 
-def sheared_run(fluid, box, steps, deviations, dtype, observe=None):
-    """Final deviations, and per-step observe(f) if given, over `steps` LB steps."""
-    update = lattice_update(fluid, dtype, "uniform", lees_edwards.sheared_stream)
-    impulse = jnp.zeros((3, *fluid.nodes), dtype)
-
-    @jax.jit
-    def run(f):
-        def body(carry, lb_step):
-            f, state = carry
-            state = box.advance(state, None, fluid.time_step)
-            key = counter_noise.family_key(3, lb_step, counter_noise.LATTICE_SALT)
-            edge = lees_edwards.boundary(box, state, fluid.grid_spacing, fluid.time_step, dtype)
-            f, _, velocity = update(f, impulse, key, edge)
-            return (f, state), None if observe is None else observe(f, velocity)
-
-        return jax.lax.scan(body, (f, box.initial_state(dtype)), jnp.arange(1, steps + 1))
-
-    (final, _), series = run(deviations)
-    return final, series
+def _nothing(f, density, velocity):
+    return None
 
 
 def layer_profiles(steps: int, translate) -> dict:
@@ -79,18 +62,18 @@ def layer_profiles(steps: int, translate) -> dict:
         nodes, shear_rate = (8, 16, 8), 0.0025
         box = LeesEdwardsBox((8.0, 16.0, 8.0), shear_rate)
         quiet = FluidParameters(nodes, 1.0, 1.0, 1.0, 0.1, 0.3, 0.0)
-        laminar, _ = sheared_run(quiet, box, 3000, jnp.zeros((19, *nodes)), jnp.float64)
+        settle = lees_edwards.fluid_run(quiet, box, jnp.float64, 3000, _nothing)
+        laminar, _ = settle(jnp.zeros((19, *nodes), jnp.float64))
         fluid = FluidParameters(nodes, 1.0, 1.0, 1.0, 0.1, 0.3, 1e-4)
         thermal = thermal_deviations(fluid, np.random.default_rng(4), np.float64)
 
-        def observe(f, velocity):
+        def observe(f, density, velocity):
             m = modes(f - laminar)
             momentum = jnp.mean(jnp.sum(m[1:4] ** 2, axis=0), axis=(0, 2)) / 3
             return velocity[0].mean(axis=(0, 2)), momentum
 
-        _, (velocity, momentum) = sheared_run(
-            fluid, box, steps + 200, laminar + thermal, jnp.float64, observe
-        )
+        run = lees_edwards.fluid_run(fluid, box, jnp.float64, steps + 200, observe, seed=3)
+        _, (velocity, momentum) = run(laminar + thermal)
     finally:
         lees_edwards.translate_layer = original
     expected = fluid.mode_variances[1] * (1 - 1 / fluid.n_nodes)

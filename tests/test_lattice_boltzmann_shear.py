@@ -5,18 +5,16 @@ beads' Lees–Edwards images, and (slow) the fluctuating fluid in the sheared fr
 
 import functools
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from jaxdpd.analysis.statistics import block_average
 from jaxdpd.geometry.boxes import LeesEdwardsBox
-from jaxdpd.solvents.lattice_boltzmann import counter_noise, lees_edwards
+from jaxdpd.solvents.lattice_boltzmann import lees_edwards
 from jaxdpd.solvents.lattice_boltzmann.coupling import interpolate
 from jaxdpd.solvents.lattice_boltzmann.fluid import (
     FluidParameters,
-    lattice_update,
     modes,
     thermal_deviations,
 )
@@ -46,28 +44,15 @@ def test_translating_a_layer_moves_every_wave_and_keeps_sums_and_squares():
         np.testing.assert_allclose((moved**2).sum(), (np.asarray(noise) ** 2).sum(), rtol=1e-13)
 
 
+def _density_and_velocity(f, density, velocity):
+    return density, velocity
+
+
 @functools.cache
 def _sheared_runner(fluid: FluidParameters, box: LeesEdwardsBox, dtype, steps: int):
-    """Jitted: (deviations, box state) → (final deviations, per-step (ρ, u) of every
-    node) over `steps` LB steps of a sheared lattice, the box advanced by τ per step
-    as the coupled integrator does."""
-    update = lattice_update(fluid, dtype, "uniform", lees_edwards.sheared_stream)
-    impulse = jnp.zeros((3, *fluid.nodes), dtype)
-
-    @jax.jit
-    def run(deviations, box_state):
-        def body(carry, lb_step):
-            f, state = carry
-            state = box.advance(state, None, fluid.time_step)
-            key = counter_noise.family_key(7, lb_step, counter_noise.LATTICE_SALT)
-            edge = lees_edwards.boundary(box, state, fluid.grid_spacing, fluid.time_step, dtype)
-            f, density, velocity = update(f, impulse, key, edge)
-            return (f, state), (density, velocity)
-
-        (f, _), series = jax.lax.scan(body, (deviations, box_state), jnp.arange(1, steps + 1))
-        return f, series
-
-    return run
+    """Jitted: deviations → (final deviations, per-step (ρ, u) of every node) over
+    `steps` LB steps of a sheared lattice (lees_edwards.fluid_run)."""
+    return lees_edwards.fluid_run(fluid, box, dtype, steps, _density_and_velocity, seed=7)
 
 
 def _momentum_flux(deviations, fluid: FluidParameters) -> np.ndarray:
@@ -98,9 +83,7 @@ def test_steady_shear_is_linear_without_a_kink_and_has_the_set_viscosity():
     shear_rate = 0.005
     box = LeesEdwardsBox((4.0, 8.0, 4.0), shear_rate)
     deviations = jnp.zeros((19, *fluid.nodes), jnp.float64)
-    final, (density, velocity) = _sheared_runner(fluid, box, jnp.float64, 800)(
-        deviations, box.initial_state(jnp.float64)
-    )
+    final, (density, velocity) = _sheared_runner(fluid, box, jnp.float64, 800)(deviations)
     heights = np.arange(8) + 0.5 - 4.0
     scale = shear_rate * 8.0
     u = np.asarray(velocity[-1])
@@ -135,9 +118,7 @@ def test_oscillatory_shear_matches_the_stokes_layers_of_the_lees_edwards_box():
     box = LeesEdwardsBox((4.0, float(n_y), 4.0), amplitude, omega)
     deviations = jnp.zeros((19, *fluid.nodes), jnp.float64)
     steps = 2 * period
-    _, (_, velocity) = _sheared_runner(fluid, box, jnp.float64, steps)(
-        deviations, box.initial_state(jnp.float64)
-    )
+    _, (_, velocity) = _sheared_runner(fluid, box, jnp.float64, steps)(deviations)
     profiles = np.asarray(velocity[:, 0]).mean(axis=(1, 3))  # (steps, n_y)
     q = np.sqrt(1j * omega / nu)
     y = np.arange(n_y) + 0.5
@@ -183,46 +164,23 @@ def test_beads_read_and_feed_the_image_layer_across_the_sheared_boundary():
     assert np.abs(unsheared).max() > 10 * bound_error  # the test can tell
 
 
-@functools.cache
-def _sheared_fluctuation_runner(fluid: FluidParameters, box: LeesEdwardsBox, steps: int):
-    """Jitted: (deviations, laminar deviations) → per-step observables of the
-    fluctuating sheared fluid in float64: the node mean of m_k² of the modes about the
-    laminar state (19,), per layer the mean density (n_y,), u_x (n_y,) and the mean of
-    the momentum modes' squares about the laminar state (n_y,), and the x-momentum
-    flux through the interior planes (n_y − 1,), per area and time."""
-    dtype = jnp.float64
-    update = lattice_update(fluid, dtype, "uniform", lees_edwards.sheared_stream)
-    impulse = jnp.zeros((3, *fluid.nodes), dtype)
-    c_x = jnp.asarray(VELOCITIES[:, 0], dtype)
-    plane = fluid.nodes[0] * fluid.nodes[2]
-    to_stress = fluid.grid_spacing**2 / fluid.time_step**2
-
-    def observe(f, laminar, density, velocity):
-        m = modes(f - laminar)
-        up = jnp.einsum("i,ixyz->y", c_x[lees_edwards.UP], f[lees_edwards.UP])
-        down = jnp.einsum("i,ixyz->y", c_x[lees_edwards.DOWN], f[lees_edwards.DOWN])
-        return (
-            jnp.mean(m.reshape(19, -1) ** 2, axis=1),
-            density.mean(axis=(0, 2)),
-            velocity[0].mean(axis=(0, 2)),
-            jnp.mean(jnp.sum(m[1:4] ** 2, axis=0), axis=(0, 2)) / 3,
-            (up[1:] - down[:-1]) / plane * to_stress,
-        )
-
-    @jax.jit
-    def run(deviations, laminar):
-        def body(carry, lb_step):
-            f, state = carry
-            state = box.advance(state, None, fluid.time_step)
-            key = counter_noise.family_key(7, lb_step, counter_noise.LATTICE_SALT)
-            edge = lees_edwards.boundary(box, state, fluid.grid_spacing, fluid.time_step, dtype)
-            f, density, velocity = update(f, impulse, key, edge)
-            return (f, state), observe(f, laminar, density, velocity)
-
-        start = (deviations, box.initial_state(dtype))
-        return jax.lax.scan(body, start, jnp.arange(1, steps + 1))[1]
-
-    return run
+def _fluctuations(f, density, velocity, laminar):
+    """Per-step observables of the fluctuating sheared fluid: the node mean of m_k² of
+    the modes about the laminar state (19,), per layer the mean density (n_y,), u_x
+    (n_y,) and the mean of the momentum modes' squares about the laminar state
+    (n_y,), and the x-momentum flux through the interior planes (n_y − 1,), lattice
+    units (a = τ = 1)."""
+    m = modes(f - laminar)
+    c_x = jnp.asarray(VELOCITIES[:, 0], f.dtype)
+    up = jnp.einsum("i,ixyz->y", c_x[lees_edwards.UP], f[lees_edwards.UP])
+    down = jnp.einsum("i,ixyz->y", c_x[lees_edwards.DOWN], f[lees_edwards.DOWN])
+    return (
+        jnp.mean(m.reshape(19, -1) ** 2, axis=1),
+        density.mean(axis=(0, 2)),
+        velocity[0].mean(axis=(0, 2)),
+        jnp.mean(jnp.sum(m[1:4] ** 2, axis=0), axis=(0, 2)) / 3,
+        (up[1:] - down[:-1]) / (f.shape[1] * f.shape[3]),
+    )
 
 
 @pytest.mark.slow
@@ -248,12 +206,13 @@ def test_fluctuating_fluid_in_steady_shear_keeps_equipartition_and_its_viscosity
     box = LeesEdwardsBox((8.0, 8.0, 8.0), shear_rate)
     quiet = FluidParameters(nodes, 1.0, 1.0, 1.0, 0.1, 0.3, 0.0)
     laminar, _ = _sheared_runner(quiet, box, jnp.float64, 1500)(
-        jnp.zeros((19, *nodes), jnp.float64), box.initial_state(jnp.float64)
+        jnp.zeros((19, *nodes), jnp.float64)
     )
     fluid = FluidParameters(nodes, 1.0, 1.0, 1.0, 0.1, 0.3, 1e-4)
     thermal = thermal_deviations(fluid, np.random.default_rng(9), np.float64)
     steps, skip = 6100, 100
-    series = _sheared_fluctuation_runner(fluid, box, steps)(laminar + thermal, laminar)
+    run = lees_edwards.fluid_run(fluid, box, jnp.float64, steps, _fluctuations, seed=7)
+    _, series = run(laminar + thermal, laminar)
     mode_sq, density, velocity_x, momentum_sq, flux = (
         np.asarray(x, np.float64)[skip:] for x in series
     )

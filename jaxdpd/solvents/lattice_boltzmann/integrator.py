@@ -21,6 +21,12 @@ conserved to round-off at every step; for beads without conservative forces the
 step leaves the joint Maxwell–Boltzmann distribution of beads and fluid invariant
 at linear order (no Δt or τ error in ⟨V²⟩).
 
+In a Lees–Edwards box (steady or oscillatory shear) the beads carry peculiar
+velocities c = V − γ̇ (y − L_y/2) x̂: each A is a free flight of the laboratory velocity
+(R ← R + ½Δt (c + u_s(R)), c_x ← c_x − ½Δt γ̇ c_y, exact for shear), O reads the
+fluid's peculiar velocity through the beads' Lees–Edwards images, and the LB step
+streams across the sheared boundary (jaxdpd.solvents.lattice_boltzmann.lees_edwards).
+
 The LB step is a `lax.cond` on the step counter (none for n = 1).  Under `jax.vmap`
 a batched counter turns it into a select that computes the LB step at every MD step;
 replicas that share the counter (vmap with in_axes None for `step` and `time`) keep

@@ -31,11 +31,17 @@ operations make it fit its new neighbourhood:
    moved by the nearest whole number of nodes, which keeps the map orthogonal.
 """
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdpd.solvents.lattice_boltzmann import counter_noise
 from jaxdpd.solvents.lattice_boltzmann.coupling import Stencil, trilinear_stencil
-from jaxdpd.solvents.lattice_boltzmann.fluid import equilibrium_deviations, stream
+from jaxdpd.solvents.lattice_boltzmann.fluid import (
+    equilibrium_deviations,
+    lattice_update,
+    stream,
+)
 from jaxdpd.solvents.lattice_boltzmann.lattice import VELOCITIES
 
 UP = np.flatnonzero(VELOCITIES[:, 1] == 1)
@@ -80,6 +86,18 @@ def galilean_shift(density, momentum, jump):
     )
 
 
+def _arrivals(layer, populations, jump, density, momentum, shift):
+    """The layer of `populations` (c_y = ±1) that a boundary layer sends across: the
+    Galilean shift by `jump`, the in-plane streaming by (c_x, c_z), and the
+    translation by `shift` nodes, (len(populations), n_x, n_z)."""
+    sent = layer[populations] + galilean_shift(density, momentum, jump)[populations]
+    moved = [
+        jnp.roll(sent[k], (int(VELOCITIES[i, 0]), int(VELOCITIES[i, 2])), axis=(0, 1))
+        for k, i in enumerate(populations)
+    ]
+    return translate_layer(jnp.stack(moved), shift)
+
+
 def sheared_stream(post_collision, density, momentum, offset_nodes, jump):
     """Stream post-collision populations across a Lees–Edwards boundary in y.
 
@@ -92,13 +110,13 @@ def sheared_stream(post_collision, density, momentum, offset_nodes, jump):
     Returns:
         (19, n_x, n_y, n_z) streamed populations.
     """
-    top = galilean_shift(density[:, -1], momentum[:, :, -1], -jump)
-    bottom = galilean_shift(density[:, 0], momentum[:, :, 0], jump)
-    shifted = post_collision.at[UP, :, -1].add(top[UP]).at[DOWN, :, 0].add(bottom[DOWN])
-    streamed = stream(shifted)
-    arrived_up = translate_layer(streamed[UP, :, 0], offset_nodes)
-    arrived_down = translate_layer(streamed[DOWN, :, -1], -offset_nodes)
-    return streamed.at[UP, :, 0].set(arrived_up).at[DOWN, :, -1].set(arrived_down)
+    up = _arrivals(
+        post_collision[:, :, -1], UP, -jump, density[:, -1], momentum[:, :, -1], offset_nodes
+    )
+    down = _arrivals(
+        post_collision[:, :, 0], DOWN, jump, density[:, 0], momentum[:, :, 0], -offset_nodes
+    )
+    return stream(post_collision).at[UP, :, 0].set(up).at[DOWN, :, -1].set(down)
 
 
 def boundary(box, box_state, grid_spacing: float, time_step: float, dtype):
@@ -163,3 +181,37 @@ def laminar_deviations(fluid, shear_rate: float, dtype):
     velocity[0] = (shear_rate * heights / fluid.lattice_speed)[None, :, None]
     density = jnp.full(fluid.nodes, fluid.density, dtype)
     return equilibrium_deviations(density, jnp.asarray(velocity, dtype), fluid.density)
+
+
+def fluid_run(fluid, box, dtype, steps: int, observe, seed: int = 0):
+    """A bare sheared fluid (no beads) stepped `steps` LB steps, the box advanced by τ
+    per step as the coupled integrator does: for studies and tests of the boundary.
+
+    Args:
+        fluid: the FluidParameters; box: a LeesEdwardsBox; dtype: floating dtype.
+        steps: LB steps (static).
+        observe: `observe(deviations, density, velocity, *extra) -> pytree`, sampled
+            after every step.
+        seed: seed of the lattice noise.
+    Returns:
+        Jitted `run(deviations, *extra) -> (final deviations, per-step samples)`,
+        starting from the box's initial state.
+    """
+    update = lattice_update(fluid, dtype, "uniform", sheared_stream)
+    impulse = jnp.zeros((3, *fluid.nodes), dtype)
+
+    @jax.jit
+    def run(deviations, *extra):
+        def body(carry, lb_step):
+            f, state = carry
+            state = box.advance(state, None, fluid.time_step)
+            key = counter_noise.family_key(seed, lb_step, counter_noise.LATTICE_SALT)
+            edge = boundary(box, state, fluid.grid_spacing, fluid.time_step, dtype)
+            f, density, velocity = update(f, impulse, key, edge)
+            return (f, state), observe(f, density, velocity, *extra)
+
+        start = (deviations, box.initial_state(dtype))
+        (final, _), samples = jax.lax.scan(body, start, jnp.arange(1, steps + 1))
+        return final, samples
+
+    return run
