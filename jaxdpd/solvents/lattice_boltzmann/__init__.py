@@ -6,6 +6,7 @@ Modules, one concept each:
     counter_noise   counter-based variates per (seed, step, node or bead, stream)
     coupling        trilinear interpolation/spreading, friction (Ornstein–Uhlenbeck) step
     integrator      MD sub-steps of the beads between LB steps; initial fluid
+    lees_edwards    the sheared boundary: streaming across it, the beads' images
     linear_theory   exact Fourier analysis: decay rates, lattice Stokeslet, mobility
     state           FluidState (SimState.solvent_state)
 

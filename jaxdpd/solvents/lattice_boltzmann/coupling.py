@@ -51,23 +51,42 @@ class Stencil:
     weights: jnp.ndarray
 
 
-def trilinear_stencil(positions, grid_spacing: float, nodes: tuple[int, int, int]) -> Stencil:
+def trilinear_stencil(
+    positions, grid_spacing: float, nodes: tuple[int, int, int], upper_shift=None
+) -> Stencil:
     """Cell corners and weights of eq. 10 for each position.
 
     Args:
         positions: (N, 3) positions (any periodic image: indices are folded).
         grid_spacing: a.
         nodes: (n_x, n_y, n_z) lattice shape.
+        upper_shift: None, or (N,) x displacement of the upper layer of corners (those
+            one node up in y): the 4 upper corners and their x weights are taken at
+            x + upper_shift (a Lees–Edwards image layer,
+            jaxdpd.solvents.lattice_boltzmann.lees_edwards.image_stencil).
     Returns:
         Stencil.
     """
     scaled = positions / jnp.asarray(grid_spacing, positions.dtype)
     lower = jnp.floor(scaled)
     fraction = scaled - lower  # (N, 3) in [0, 1)
+    lower, fraction = lower.astype(jnp.int32)[:, None, :], fraction[:, None, :]
+    if upper_shift is not None:
+        shifted = scaled[:, 0] + upper_shift / jnp.asarray(grid_spacing, positions.dtype)
+        shifted_lower = jnp.floor(shifted)
+        upper = _CORNERS[None, :, 1] == 1  # (1, 8)
+        lower = jnp.broadcast_to(lower, (positions.shape[0], 8, 3))
+        fraction = jnp.broadcast_to(fraction, lower.shape)
+        lower = lower.at[..., 0].set(
+            jnp.where(upper, shifted_lower.astype(jnp.int32)[:, None], lower[..., 0])
+        )
+        fraction = fraction.at[..., 0].set(
+            jnp.where(upper, (shifted - shifted_lower)[:, None], fraction[..., 0])
+        )
     shape = jnp.asarray(nodes, jnp.int32)
-    corners = (lower.astype(jnp.int32)[:, None, :] + _CORNERS[None]) % shape  # (N, 8, 3)
+    corners = (lower + _CORNERS[None]) % shape  # (N, 8, 3)
     flat = (corners[..., 0] * nodes[1] + corners[..., 1]) * nodes[2] + corners[..., 2]
-    per_axis = jnp.where(_CORNERS[None] == 1, fraction[:, None, :], 1 - fraction[:, None, :])
+    per_axis = jnp.where(_CORNERS[None] == 1, fraction, 1 - fraction)
     return Stencil(flat, jnp.prod(per_axis, axis=-1))
 
 

@@ -202,7 +202,9 @@ def equilibrium_deviations(density, velocity, rest_density: float):
     return w * ((density - rest_density) + density * flow)
 
 
-def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform"):
+def lattice_update(
+    parameters: FluidParameters, dtype, noise_law: str = "uniform", sheared_stream=None
+):
     """The LB step: collide (with applied impulse and noise), then stream.
 
     Args:
@@ -211,8 +213,12 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
         noise_law: "uniform" or "gaussian" unit-variance ξ_k (used when k_BT > 0;
             Gaussian variates make the step several times slower on a CPU,
             benchmarks/lattice_boltzmann_throughput.py).
+        sheared_stream: None for the periodic lattice, or the streaming across a
+            Lees–Edwards boundary (jaxdpd.solvents.lattice_boltzmann.lees_edwards
+            .sheared_stream); then `update` takes its (offset, jump) as `boundary`.
     Returns:
-        `update(deviations, impulse_density, key) -> (deviations, density, velocity)`, pure:
+        `update(deviations, impulse_density, key, boundary=()) -> (deviations, density,
+        velocity)`, pure:
         deviations f_i − w_i ρ₀ (19, n_x, n_y, n_z) before collision; impulse_density (3, ...)
         the momentum per volume given to the fluid over this step (physical units,
         e.g. by the beads' friction), applied as a force density impulse/τ; key the
@@ -234,7 +240,7 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
 
     rest_density = jnp.asarray(parameters.density, dtype)
 
-    def update(deviations, impulse_density, key):
+    def update(deviations, impulse_density, key, boundary=()):
         m = modes(deviations)
         density, momentum = rest_density + m[0], m[1:4]
         impulse = (impulse_to_lattice * impulse_density).astype(dtype)
@@ -250,7 +256,11 @@ def lattice_update(parameters: FluidParameters, dtype, noise_law: str = "uniform
         if thermal:
             xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape(m[4:].shape)
             relaxed = relaxed.at[4:].add(amplitudes * xi)
-        streamed = stream(populations_from_modes(relaxed))
+        if sheared_stream is None:
+            streamed = stream(populations_from_modes(relaxed))
+        else:
+            post_collision = populations_from_modes(relaxed)
+            streamed = sheared_stream(post_collision, density, relaxed[1:4], *boundary)
         new_mass, new_momentum = mass_and_momentum(streamed)
         new_density = rest_density + new_mass
         return streamed, new_density, speed * new_momentum / new_density

@@ -21,6 +21,12 @@ conserved to round-off at every step; for beads without conservative forces the
 step leaves the joint Maxwell–Boltzmann distribution of beads and fluid invariant
 at linear order (no Δt or τ error in ⟨V²⟩).
 
+In a Lees–Edwards box (steady or oscillatory shear) the beads carry peculiar
+velocities c = V − γ̇ (y − L_y/2) x̂: each A is a free flight of the laboratory velocity
+(R ← R + ½Δt (c + u_s(R)), c_x ← c_x − ½Δt γ̇ c_y, exact for shear), O reads the
+fluid's peculiar velocity through the beads' Lees–Edwards images, and the LB step
+streams across the sheared boundary (jaxdpd.solvents.lattice_boltzmann.lees_edwards).
+
 The LB step is a `lax.cond` on the step counter (none for n = 1).  Under `jax.vmap`
 a batched counter turns it into a select that computes the LB step at every MD step;
 replicas that share the counter (vmap with in_axes None for `step` and `time`) keep
@@ -33,7 +39,8 @@ import numpy as np
 
 from jaxdpd.engine import errors
 from jaxdpd.engine.integrators import _flag
-from jaxdpd.solvents.lattice_boltzmann import counter_noise
+from jaxdpd.geometry import flows
+from jaxdpd.solvents.lattice_boltzmann import counter_noise, lees_edwards
 from jaxdpd.solvents.lattice_boltzmann.coupling import (
     friction_impulse,
     interpolate,
@@ -50,11 +57,16 @@ from jaxdpd.solvents.lattice_boltzmann.fluid import (
 from jaxdpd.solvents.lattice_boltzmann.state import FluidState
 
 
-def initial_fluid_state(fluid: FluidParameters, seed: int, dtype) -> FluidState:
-    """A fluid at rest in thermal equilibrium (host-side draw; seeded by `seed`, in a
-    NumPy stream separate from the particle placement's)."""
+def initial_fluid_state(
+    fluid: FluidParameters, seed: int, dtype, shear_rate: float | None = None
+) -> FluidState:
+    """A fluid in thermal equilibrium (host-side draw; seeded by `seed`, in a NumPy
+    stream separate from the particle placement's), at rest or, with a `shear_rate`,
+    in the laminar profile of a sheared box (lees_edwards.laminar_deviations)."""
     rng = np.random.default_rng([seed, 0x4C42])
     deviations = jnp.asarray(thermal_deviations(fluid, rng, dtype))
+    if shear_rate is not None:
+        deviations = deviations + lees_edwards.laminar_deviations(fluid, shear_rate, dtype)
     mass, momentum = mass_and_momentum(deviations)
     velocity = jnp.asarray(fluid.lattice_speed, dtype) * momentum / (fluid.density + mass)
     return FluidState(deviations, velocity, jnp.zeros_like(velocity))
@@ -115,7 +127,10 @@ def coupled_step(
     node_mass = fluid.density * fluid.grid_spacing**3
     inverse_density = jnp.asarray(1 / fluid.density, dtype)
     inverse_volume = jnp.asarray(1.0 / fluid.grid_spacing**3, dtype)
-    update_fluid = lattice_update(fluid, dtype, noise_law)
+    sheared = box.flow_kind == "shear"
+    update_fluid = lattice_update(
+        fluid, dtype, noise_law, lees_edwards.sheared_stream if sheared else None
+    )
     # No runaway check without a temperature (a deterministic fluid).
     runaway_scale = kT if kT > 0 else np.inf
 
@@ -130,23 +145,58 @@ def coupled_step(
         force = np.asarray(fluid_force_density, np.float64) * fluid.time_step
         body_impulse = jnp.asarray(force, dtype).reshape(3, 1, 1, 1)
 
-    def lattice_step(solvent, seed, lb_step):
+    def lattice_step(solvent, seed, lb_step, box_state):
         key = counter_noise.family_key(seed, lb_step, counter_noise.LATTICE_SALT)
         impulse = solvent.impulse if body_impulse is None else solvent.impulse + body_impulse
-        deviations, density, velocity = update_fluid(solvent.deviations, impulse, key)
+        boundary = ()
+        if sheared:
+            boundary = lees_edwards.boundary(
+                box, box_state, fluid.grid_spacing, fluid.time_step, dtype
+            )
+        deviations, density, velocity = update_fluid(solvent.deviations, impulse, key, boundary)
         healthy = jnp.all(density > 0) & jnp.all(jnp.isfinite(velocity))
         bits = jnp.where(healthy, 0, errors.StepError.FLUID_INVALID).astype(jnp.int32)
         return FluidState(deviations, velocity, jnp.zeros_like(solvent.impulse)), bits
+
+    def fluid_velocity_at(solvent, stencil):
+        """u(R) the beads see: the last LB velocity plus the impulse given since, /ρ₀."""
+        return interpolate(solvent.velocity, stencil) + inverse_density * interpolate(
+            solvent.impulse, stencil
+        )
+
+    def drift(bound, positions, velocities):
+        """Half a step of free flight in a sheared box: the laboratory velocity
+        c + u_s(R) stays, so the peculiar velocity c loses ½Δt γ̇ c_y along x (SLLOD,
+        exact for shear; jaxdpd.geometry.flows)."""
+        moved = positions + half * flows.drift_velocity(bound, positions, velocities)
+        return moved, velocities + half * flows.sllod_drag(bound, velocities)
+
+    def sheared_friction_step(state, velocities):
+        """A and O of a sheared box: positions, peculiar velocities, stencil, the
+        fluid's peculiar velocity at the beads (jaxdpd.solvents.lattice_boltzmann
+        .lees_edwards), the box state at the end of the step."""
+        middle = box.bind(box.advance(state.box_state, state.time, half))
+        midpoint, velocities = drift(middle, state.positions, velocities)
+        located, _ = middle.wrap(midpoint, state.image)
+        stencil = lees_edwards.image_stencil(located, middle, fluid.grid_spacing, fluid.nodes)
+        laminar = lees_edwards.streaming_at_nodes(
+            stencil, middle, fluid.grid_spacing, fluid.nodes
+        )
+        fluid_velocities = fluid_velocity_at(state.solvent_state, stencil) - laminar
+        return middle, midpoint, velocities, stencil, fluid_velocities
 
     def step(state):
         solvent = state.solvent_state
         new_step = state.step + 1
         velocities = state.velocities + half * state.forces / bead_mass
-        midpoint = state.positions + half * velocities
-        stencil = trilinear_stencil(midpoint, fluid.grid_spacing, fluid.nodes)
-        fluid_velocities = interpolate(solvent.velocity, stencil) + inverse_density * interpolate(
-            solvent.impulse, stencil
-        )
+        if sheared:
+            middle, midpoint, velocities, stencil, fluid_velocities = sheared_friction_step(
+                state, velocities
+            )
+        else:
+            midpoint = state.positions + half * velocities
+            stencil = trilinear_stencil(midpoint, fluid.grid_spacing, fluid.nodes)
+            fluid_velocities = fluid_velocity_at(solvent, stencil)
         xi = None
         if noise_kT is not None:
             key = counter_noise.family_key(state.seed, new_step, counter_noise.BEAD_SALT)
@@ -161,17 +211,26 @@ def coupled_step(
         )
         coupled = velocities + impulse / bead_mass
         impulse_field = spread(solvent.impulse, stencil, -inverse_volume * impulse)
-        positions, image = box.wrap(midpoint + half * coupled, state.image)
-        advanced = state.set(positions=positions, image=image, step=new_step)
+        if sheared:
+            box_state = box.advance(state.box_state, state.time, dt_)
+            moved, coupled = drift(middle, midpoint, coupled)
+            image = box.carry_images(state.image, state.box_state, box_state)
+            positions, image = box.bind(box_state).wrap(moved, image)
+            advanced = state.set(
+                positions=positions, image=image, box_state=box_state, step=new_step
+            )
+        else:
+            positions, image = box.wrap(midpoint + half * coupled, state.image)
+            advanced = state.set(positions=positions, image=image, step=new_step)
         forces, virial, advanced, bits = forces_at(positions, coupled, advanced)
         velocities = coupled + half * forces / bead_mass
         solvent = FluidState(solvent.deviations, solvent.velocity, impulse_field)
         if substeps == 1:
-            solvent, fluid_bits = lattice_step(solvent, state.seed, new_step)
+            solvent, fluid_bits = lattice_step(solvent, state.seed, new_step, advanced.box_state)
         else:
             solvent, fluid_bits = jax.lax.cond(
                 new_step % substeps == 0,
-                lambda s: lattice_step(s, state.seed, new_step // substeps),
+                lambda s: lattice_step(s, state.seed, new_step // substeps, advanced.box_state),
                 lambda s: (s, jnp.asarray(0, jnp.int32)),
                 solvent,
             )

@@ -5,7 +5,10 @@ kT ≥ 0 (0 = no fluctuations), grid_spacing a > 0 (box edges whole multiples of
 time_step τ > 0 (a whole multiple of integrator.dt), mass_density ρ > 0,
 kinematic_viscosity ν > 0, kinematic_bulk_viscosity ν_b > 0 (default ν), friction ζ > 0
 (bare bead–fluid friction), noise = "uniform" | "gaussian"; units are the scene's own
-(e.g. Lennard-Jones units).  The fluid lives in SimState.solvent_state.
+(e.g. Lennard-Jones units).  The fluid lives in SimState.solvent_state.  A [flow] of
+kind "shear" (steady or oscillatory) shears the lattice with a Lees–Edwards boundary
+(jaxdpd.solvents.lattice_boltzmann.lees_edwards); the beads then carry peculiar
+velocities, as in the particle solvents.
 """
 
 import math
@@ -55,6 +58,7 @@ class LatticeBoltzmann(component.SolventMethod):
 
     name = "lattice_boltzmann"
     fields = (*FLUID_FIELDS, "noise")
+    flows = ("shear",)
     integrator_lambda = False
     conserves_particle_momentum = False
     heating_advice = "reduce integrator.dt (the beads' friction step) or solvent.time_step"
@@ -125,6 +129,12 @@ class LatticeBoltzmann(component.SolventMethod):
                     f"solvent.grid_spacing = {a:.6g}; make every edge n a (e.g. "
                     f"{max(1, n) * a:.6g})"
                 )
+        if scene.flow is not None and lattice_nodes(lengths, a)[1] < 2:
+            raise ValueError(
+                f"box.lengths: L_y = {lengths[1]:.6g} holds one layer of nodes; a "
+                "Lees–Edwards boundary of the lattice needs two or more (L_y ≥ "
+                f"{2 * a:.6g} = 2 solvent.grid_spacing)"
+            )
         substeps = round(solvent.time_step / dt)
         if substeps < 1 or not math.isclose(substeps * dt, solvent.time_step, rel_tol=1e-9):
             raise ValueError(
@@ -181,4 +191,5 @@ class LatticeBoltzmann(component.SolventMethod):
         )
 
     def initial_solvent_state(self, scene, dtype):
-        return initial_fluid_state(fluid_parameters(scene), scene.seed, dtype)
+        shear_rate = None if scene.flow is None else scene.flow.shear_rate
+        return initial_fluid_state(fluid_parameters(scene), scene.seed, dtype, shear_rate)
