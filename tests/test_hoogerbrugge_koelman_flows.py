@@ -105,6 +105,26 @@ def test_a_scene_file_and_a_dict_give_one_scene_in_the_flows_box(name, tmp_path)
     assert Scene.from_dict(scene.to_dict()) == scene
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"neighbors": {"method": "all_pairs"}}, "neighbors.method = 'all_pairs'"),
+        ({"body_force": {"kind": "cosine", "amplitude": 0.01}}, "body_force: solvent.method"),
+        (
+            {"particles": {"density": 3.0, "species": [{"name": "a", "mass": 2.0}]}},
+            r"species\[\]\.mass",
+        ),
+    ],
+)
+@pytest.mark.parametrize("name", FLOWS)
+def test_what_hk_lacks_in_a_flow_is_refused_naming_the_field(name, change, message):
+    """The flows come without the neighbour backends that do not know the moving
+    boundaries, and without the body forces and masses HK refuses at rest."""
+    data = {**hk_fluid([4.0, 3.0, 4.0], FLOWS[name][1]), **change}
+    with pytest.raises(ValueError, match=message):
+        Scene.from_dict(data)
+
+
 @pytest.mark.parametrize("name", ["shear", "planar_elongation"])
 def test_steady_flows_run_from_a_scene_file(name, tmp_path):
     """20 steps with no flag; the box strains at the set rate (Lees–Edwards offset
