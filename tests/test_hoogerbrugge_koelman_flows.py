@@ -259,6 +259,12 @@ def test_stress_viscosity_equals_the_transverse_current_viscosity_at_rest(sheare
         f"HK η: stress {eta:.4f} ± {error:.4f}, transverse currents ρν = "
         f"{DENSITY * nu:.4f} ± {DENSITY * nu_error:.4f}"
     )
+    parts = {
+        name.rsplit("/", 1)[1]: round(float(np.mean(-values[:, 1, 0])) / SHEAR_RATE, 4)
+        for name, values in sheared.items()
+        if name.startswith("pressure_tensor_part/")
+    }
+    print(f"HK η by part: {parts}")
     assert abs(eta - DENSITY * nu) < 4 * np.hypot(error, DENSITY * nu_error)
     assert error < 0.05 * eta and nu_error < 0.1 * nu  # a comparison with teeth
     asymmetry, asymmetry_error = mean_and_error(
