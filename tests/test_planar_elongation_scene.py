@@ -46,7 +46,6 @@ def test_planar_elongation_scene_round_trips_with_its_defaults():
         ({"box": {"lengths": [2.2, 4.0, 2.2]}}, "thinnest cell height"),
         ({"box": {"lengths": [6.0, 1.9, 6.0]}}, "L_y = 1.9"),
         ({"neighbors": {"method": "jax_md"}}, "Kraynik–Reinelt"),
-        ({"solvent": {"method": "hoogerbrugge_koelman"}, "pair": None}, "no SLLOD"),
         (
             {"solvent": {"method": "mpcd", "cell_size": 0.7, "collision_time": 0.04}, "pair": None},
             "solvent.cell_size",

@@ -160,30 +160,72 @@ def thermalized_velocity_verlet(
     return step
 
 
-def collide_and_stream(box, dt: float, interactions, kT: float, dtype):
-    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses,
-    a box at rest).
+def free_flight(bound, new_bound, positions, velocities, duration):
+    """Free flight over h of force-free particles in a box going from `bound` to
+    `new_bound`: SLLOD without forces (jaxdpd.geometry.flows), r ← r + h (c + u(r)) +
+    ½ h² L u(r) and (1 + ½ h L') c' = (1 − ½ h L) c, exact in shear (c' = c − h L c,
+    the laboratory velocity kept), second order in elongation.  At rest r ← r + h v.
 
-        v_i ← v_i + δt F_i,     r_i ← r_i + v_i δt,
+    Returns:
+        (unwrapped positions, peculiar velocities), (N, 3) each.
+    """
+    moved = positions + duration * flows.drift_velocity(bound, positions, velocities)
+    curvature = flows.streaming_curvature(bound, positions)
+    if curvature is not None:
+        moved = moved + (0.5 * duration * duration) * curvature
+    drag = flows.sllod_drag(bound, velocities)
+    if drag is None:
+        return moved, velocities
+    return moved, flows.implicit_sllod_velocity(
+        new_bound, velocities + 0.5 * duration * drag, duration
+    )
+
+
+def collide_and_stream(box, dt: float, interactions, kT: float, dtype, with_virial=False):
+    """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
+
+        c_i ← c_i + δt F_i,     then `free_flight` over δt,
 
     with F_i the sum of the collision's mean force Σ_j Ω_ij e_ij/δt
-    (jaxdpd.solvents.hoogerbrugge_koelman) and of the springs' and body forces,
+    (jaxdpd.solvents.hoogerbrugge_koelman; in a flowing box it reads the laboratory
+    relative velocities, thesis eq. 3.18) and of the springs' and body forces,
     which Schlijper, Hoogerbrugge & Manke (J. Rheol. 39, 567 (1995)) apply as the
-    impulses F δt in the same update.  The recorded virial parts are those of these
-    forces.  `kT` is the temperature scale of the runaway check: the fluid's
-    expected temperature (solvent.initial_kT), not a set one.
+    impulses F δt in the same update.  At rest c = v and the flight is r ← r + v δt.
+    In a flowing box c is the peculiar velocity, the box state advances with the
+    flight and the round-off of Σ c is removed (as in `modified_velocity_verlet`).
+
+    Recorded virial parts: those of the forces, and (`with_virial`, in flow)
+    "streaming", the flight average of the kinetic stress minus its value at the end
+    of the step, where the observables sample it (`free_flight_stress`).  `kT` is
+    the temperature scale of the runaway check: the fluid's expected temperature
+    (solvent.initial_kT), not a set one.
     """
     dt_ = jnp.asarray(dt, dtype)
 
     def step(state):
         forces, virial, refreshed, bits = interactions(state.positions, state.velocities, state)
-        velocities = state.velocities + dt_ * forces
-        positions, image = box.wrap(state.positions + dt_ * velocities, state.image)
+        collided = state.velocities + dt_ * forces
+        bound = box.bind(state.box_state)
+        box_state = box.advance(state.box_state, state.time, dt_)
+        new_bound = box.bind(box_state)
+        moved, velocities = free_flight(bound, new_bound, state.positions, collided, dt_)
+        image = box.carry_images(state.image, state.box_state, box_state)
+        positions, image = new_bound.wrap(moved, image)
+        velocities = flows.remove_momentum_drift(new_bound, velocities)
+        if with_virial and bound.velocity_gradient is not None:
+            weights = jnp.ones(collided.shape[0], dtype)
+            virial = {
+                **virial,
+                "streaming": free_flight_stress(bound.velocity_gradient, collided, weights, dt_)
+                + collided.T @ collided
+                - velocities.T @ velocities,
+            }
         return refreshed.set(
             positions=positions,
             velocities=velocities,
             image=image,
             virial=virial,
+            box_state=box_state,
             step=state.step + 1,
             time=state.time + dt_,
             flags=_flag(state, positions, velocities, refreshed.pair_list, kT, bits),
@@ -294,22 +336,11 @@ def mpcd_cycle(
             return weights
         return weights.at[monomers[0] : monomers[1]].set(0)
 
-    def stream(bound, new_bound, positions, velocities):
-        """Free flight over h: positions (unwrapped) and peculiar velocities."""
-        moved = positions + h * flows.drift_velocity(bound, positions, velocities)
-        curvature = flows.streaming_curvature(bound, positions)
-        if curvature is not None:
-            moved = moved + (0.5 * h * h) * curvature
-        drag = flows.sllod_drag(bound, velocities)
-        if drag is None:
-            return moved, velocities
-        return moved, flows.implicit_sllod_velocity(new_bound, velocities + 0.5 * h * drag, h)
-
     def step(state):
         bound = box.bind(state.box_state)
         box_state = box.advance(state.box_state, state.time, h)
         new_bound = box.bind(box_state)
-        moved, velocities = stream(bound, new_bound, state.positions, state.velocities)
+        moved, velocities = free_flight(bound, new_bound, state.positions, state.velocities, h)
         image = box.carry_images(state.image, state.box_state, box_state)
         positions, image = new_bound.wrap(moved, image)
         forces, virial = state.forces, {}

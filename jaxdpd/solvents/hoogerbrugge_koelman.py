@@ -13,6 +13,17 @@ so that it adds to other forces (springs, body forces: Schlijper, Hoogerbrugge &
 Manke, J. Rheol. 39, 567 (1995), apply them as impulses F δt in the same update)
 and the integrator turns their sum into the impulse δt Σ F.  The collision impulse
 Ω_ij itself does not depend on δt: δt changes the model, not its accuracy.
+
+Flows (shear, oscillatory shear, planar elongation): as for every solvent of the
+package (docs/conventions.md), the stored velocities are peculiar, c = v − u(r), so
+nothing jumps at a Lees–Edwards or Kraynik–Reinelt boundary.  The collision reads
+the laboratory relative momentum (p_i − p_j)·e_ij = m [(c_i − c_j) + L r_ij]·e_ij
+(the Lees–Edwards relative velocity of the DPD dissipative force, thesis eq. 3.18),
+and the free flight is SLLOD without forces in the deforming box: in shear the
+laboratory velocity is kept (c ← c − δt L c), in elongation the homogeneous flow is
+kept as in the SLLOD integrators (Todd & Daivis, Comput. Phys. Commun. 117, 191
+(1999)).  The kinetic stress is averaged over the flight (jaxdpd.engine.integrators:
+collide_and_stream, free_flight).  docs/solvent_flows/hoogerbrugge_koelman.md.
 """
 
 from dataclasses import dataclass
@@ -93,10 +104,11 @@ class HoogerbruggeKoelmanParameters(component.SolventParameters):
 class HoogerbruggeKoelman(component.SolventMethod):
     """The original DPD update (module docstring): pi0, omega, delta_pi (half-width),
     weight_density n > 0 (default N/V), initial_kT > 0; a collision and free flight
-    of unit masses in a box at rest, with its own conservative part (no [pair])."""
+    of unit masses, at rest or in flow, with its own conservative part (no [pair])."""
 
     name = "hoogerbrugge_koelman"
     fields = ("pi0", "omega", "delta_pi", "weight_density", "initial_kT")
+    flows = ("shear", "planar_elongation")
     pair_forces = False
     sets_temperature = False
     uses_neighbor_list = True
@@ -164,5 +176,10 @@ class HoogerbruggeKoelman(component.SolventMethod):
     def advance(self, context):
         scene = context.scene
         return collide_and_stream(
-            context.box, scene.integrator.dt, context.interactions, scene.solvent.kT, context.dtype
+            context.box,
+            scene.integrator.dt,
+            context.interactions,
+            scene.solvent.kT,
+            context.dtype,
+            context.with_virial,
         )

@@ -97,6 +97,19 @@ def _with(base: dict, **sections) -> dict:
     return data
 
 
+# The flowing HK scenes: the default fluid (k_BT ≈ 0.0016) with Schlijper et al.'s
+# weak springs, stable at δt = 1 (the springs of HOOGERBRUGGE_KOELMAN, K = 10, are
+# not: that trajectory runs away within ten steps), at rates of its thermal speed.
+HK_FLUID = _with(
+    HOOGERBRUGGE_KOELMAN,
+    solvent={"method": "hoogerbrugge_koelman"},
+    polymers=[
+        {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 0.006}}
+    ],
+)
+HK_SHEAR = {"kind": "shear", "shear_rate": 0.02}
+
+
 def _packaged(name: str) -> dict:
     text = (HERE.parent.parent / "jaxdpd" / "scenes" / f"{name}.toml").read_text()
     data = tomllib.loads(text)
@@ -168,6 +181,16 @@ SCENES = {
         flow=ELONGATION,
     ),
     "hoogerbrugge_koelman_rest": HOOGERBRUGGE_KOELMAN,
+    "hoogerbrugge_koelman_shear": _with(HK_FLUID, flow=HK_SHEAR),
+    "hoogerbrugge_koelman_oscillatory_shear": _with(
+        HK_FLUID, flow={**HK_SHEAR, "oscillation_frequency": 0.1}
+    ),
+    "hoogerbrugge_koelman_elongation": _with(
+        {k: v for k, v in HK_FLUID.items() if k != "particles"},
+        box=KR_BOX,
+        particles={"density": 3.0, "species": HK_FLUID["particles"]["species"]},
+        flow={"kind": "planar_elongation", "elongation_rate": 0.01},
+    ),
     "mpcd_rest": MPCD,
     "mpcd_shear": _with(MPCD, flow=SHEAR),
     "mpcd_particle_collisions": _with(
