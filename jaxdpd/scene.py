@@ -16,13 +16,12 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [flow]      kind = "shear": shear_rate γ̇ (1/time, any sign; u_x = γ̇ (y − L_y/2)),
                 oscillation_frequency ω > 0 for γ̇(t) = γ̇ cos(ω t) (optional);
                 needs a Lees–Edwards box and a solvent method with a shear step
-                ("dpd", "lowe_andersen", "mpcd"; MPCD shear: the viscosity is
-                −⟨P_yx⟩/γ̇, the collisional stress is not symmetric)
+                (every method; docs/solvent_flows/README.md has the table)
                 kind = "planar_elongation": elongation_rate ε̇ (1/time, any sign;
                 u = ε̇ (−(x − x0), 0, z − z0), thesis eq. 5.12), kraynik_reinelt_case
                 = 1..4 (lattice of thesis table 3.27, default 1); needs a
                 Kraynik–Reinelt box and a solvent method with an elongation step
-                ("dpd", "lowe_andersen", "mpcd"; MPCD cells: docs/solvent_flows/mpcd.md)
+                (every method but "lattice_boltzmann")
     [particles] density ρ > 0 and/or count N ≥ 2; species = [{name, count|fraction,
                 mass}] (mass > 0 in units of m, default 1)
                 with box.lengths give one of density/count; without, give both
