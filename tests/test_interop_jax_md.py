@@ -1,0 +1,228 @@
+"""jaxdpd's boxes, cell list and SLLOD streaming used from jax-md
+(jaxdpd.interop.jax_md).
+
+References:
+- separations: a brute-force search over the periodic images of the lattice, in
+  float64, with the lattice written from the total strain independently of jaxdpd's
+  reduced basis: Lees–Edwards a1 = (L_x, 0, 0), a2 = (γ L_y mod L_x, L_y, 0),
+  a3 = (0, 0, L_z) (thesis eq. 3.19); Kraynik–Reinelt the thesis's basis F(ε) A0 at
+  ε = E mod ε_p (thesis §3.4.2, table 3.27), the shortest of n ∈ [−4, 4]² in-plane
+  and n_y ∈ {−1, 0, 1} images (the search range is checked to contain it);
+- forces: jax-md's `energy.soft_sphere` U = ε/α (1 − r/σ)^α (α = 2: the DPD
+  conservative force, thesis eq. 2.4), F_i = Σ_j (ε/σ)(1 − r/σ) r̂_ij over the
+  brute-force shortest images;
+- pair sets: jax-md's own `partition.neighbor_list(..., format=Dense)` with
+  `space.periodic` in a box at rest, the brute-force search in deformed boxes.
+
+Float32 tolerance on forces: a displacement is off by a few ulp of the box edge
+(positions, the float32 box state), so a force by ~10 ulp(L) ε/σ² per partner, at
+most 30 partners here; a wrong image is off by O(ε/σ).
+"""
+
+import itertools
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from jax_md import energy, partition
+from jax_md import space as jmd_space
+
+from jaxdpd.geometry.boxes import KraynikReineltState, LeesEdwardsState, make_box
+from jaxdpd.geometry.boxes.kraynik_reinelt_lattice import stretch
+from jaxdpd.interop.jax_md import neighbor_list, space
+
+LE_LENGTHS = (6.0, 5.0, 5.0)
+KR_LENGTHS = (6.0, 5.0, 6.0)
+SIGMA = 2.0  # soft-sphere range: below half the thinnest cell height of both boxes
+SEARCH = 4
+SHEAR_STRAINS = [0.0, 0.3, 0.5, 1.7, 12.345, 1000.37, 1_000_000.61, 3_141_592.65]
+# Around the changes of reduced basis (±0.2406 for case 1), near the thesis basis's
+# thinnest cell (ε → ε_p), and far past 10⁶.
+HENCKY_STRAINS = [0.0, 0.2, 0.2406058, 0.2406060, -0.4, 0.48, 0.9, 3.1, 1000.1, 1_000_000.93]
+
+
+def lees_edwards(strain, dtype):
+    """The box, its state at shear strain γ (offset γ L_y reduced in float64), and the
+    reference lattice (3, 3), columns a1, a2, a3."""
+    box = make_box("lees_edwards", LE_LENGTHS)
+    lx, ly, lz = LE_LENGTHS
+    offset = math.remainder(strain * ly, lx)  # in [−L_x/2, L_x/2]
+    state = LeesEdwardsState(
+        offset=jnp.asarray(offset, dtype),
+        shear_rate=jnp.asarray(0.0, dtype),
+        time=jnp.asarray(0.0, jnp.float64),
+    )
+    return box, state, np.array([[lx, offset, 0.0], [0.0, ly, 0.0], [0.0, 0.0, lz]])
+
+
+def kraynik_reinelt(strain, dtype):
+    """The box, its state at Hencky strain E (reduced modulo ε_p in float64), and the
+    thesis lattice F(ε) A0 at ε = E mod ε_p."""
+    box = make_box("kraynik_reinelt", KR_LENGTHS)
+    period = box.period
+    reduced = math.fmod(strain, period) % period  # in [0, ε_p): the thesis's interval
+    state = KraynikReineltState(
+        strain=jnp.asarray(math.remainder(reduced, period), dtype),
+        elongation_rate=jnp.asarray(0.0, dtype),
+    )
+    side, ly, _ = KR_LENGTHS
+    plane = stretch(reduced) @ (side * np.asarray(box.geometry.cell))
+    lattice = np.array(
+        [[plane[0, 0], 0.0, plane[0, 1]], [0.0, ly, 0.0], [plane[1, 0], 0.0, plane[1, 1]]]
+    )
+    return box, state, lattice
+
+
+BOXES = {
+    "lees_edwards": (lees_edwards, SHEAR_STRAINS),
+    "kraynik_reinelt": (kraynik_reinelt, HENCKY_STRAINS),
+}
+
+
+def shortest_images(positions, lattice):
+    """(N, N, 3) float64 shortest image vectors r_i − r_j + n · lattice."""
+    ranges = [range(-SEARCH, SEARCH + 1), (-1, 0, 1), range(-SEARCH, SEARCH + 1)]
+    if lattice[0, 2] == 0 and lattice[2, 0] == 0:  # Lees–Edwards: z is orthogonal
+        ranges[2] = (-1, 0, 1)
+    shifts = np.array(list(itertools.product(*ranges))) @ lattice.T
+    raw = positions[:, None, :] - positions[None, :, :]
+    best = np.full(raw.shape, np.inf)
+    for shift in shifts:
+        image = raw + shift
+        shorter = np.sum(image**2, -1) < np.sum(best**2, -1)
+        best[shorter] = image[shorter]
+    reach = min(np.linalg.norm(lattice, axis=0)) * (SEARCH - 1)
+    assert np.max(np.linalg.norm(best, axis=-1)) < reach, "widen the image search"
+    return best
+
+
+def brute_force_forces(positions, lattice, epsilon=1.0):
+    """Soft-sphere (α = 2) forces from the shortest images, float64."""
+    d = shortest_images(positions, lattice)
+    r = np.linalg.norm(d, axis=-1)
+    np.fill_diagonal(r, np.inf)
+    magnitude = np.where(r < SIGMA, epsilon / SIGMA * (1 - r / SIGMA), 0.0)
+    return np.sum((magnitude / r)[..., None] * d, axis=1), int(np.max(np.sum(r < SIGMA, 1)))
+
+
+def brute_force_pairs(positions, lattice, cutoff):
+    d = shortest_images(positions, lattice)
+    close = np.sum(d * d, -1) < cutoff * cutoff
+    return {(i, j) for i, j in zip(*np.nonzero(np.triu(close, 1)), strict=True)}
+
+
+def listed(neighbors, n):
+    """Unordered pairs of a jax-md list in any format."""
+    idx = np.asarray(neighbors.idx)
+    if neighbors.format is partition.Dense:
+        rows = np.repeat(np.arange(n), idx.shape[1])
+        pairs = zip(rows, idx.reshape(-1), strict=True)
+    else:
+        pairs = zip(idx[0], idx[1], strict=True)
+    return {(min(i, j), max(i, j)) for i, j in pairs if i < n and j < n}
+
+
+def random_positions(lattice, n, seed, dtype):
+    """Uniform positions in the cell spanned by `lattice` (float64 and `dtype`)."""
+    fractions = np.random.default_rng(seed).uniform(0, 1, (n, 3))
+    positions = fractions @ lattice.T
+    return positions, jnp.asarray(positions, dtype)
+
+
+@pytest.mark.parametrize("kind", list(BOXES))
+def test_jax_md_forces_with_jaxdpd_spaces_match_brute_force_in_float32(kind):
+    """jax-md's soft-sphere pair energy over all pairs, differentiated by jax, with
+    jaxdpd's displacement at every strain of the list (past 10⁶ strain units)."""
+    make, strains = BOXES[kind]
+    box, _, _ = make(0.0, jnp.float32)
+    displacement, _ = space(box)
+    energy_fn = energy.soft_sphere_pair(displacement, sigma=SIGMA, epsilon=1.0, alpha=2.0)
+    force_fn = jax.jit(lambda r, state: -jax.grad(energy_fn)(r, box=state))
+    tolerance = 30 * 10 * np.spacing(np.float32(max(box.lengths))) / SIGMA**2
+    for k, strain in enumerate(strains):
+        _, state, lattice = make(strain, jnp.float32)
+        exact, partners = brute_force_forces(*random_positions(lattice, 60, k, jnp.float32)[:1], lattice)
+        assert 3 < partners <= 30
+        positions = random_positions(lattice, 60, k, jnp.float32)[1]
+        forces = np.asarray(force_fn(positions, state), np.float64)
+        error = np.max(np.abs(forces - exact))
+        assert error < tolerance, (strain, error, tolerance)
+
+
+def test_neighbor_list_matches_jax_md_brute_force_on_a_periodic_box():
+    """Every format of the cell-list neighbour list holds the pairs of jax-md's own
+    Dense list without cell list (all pairs tested), at allocation and after an update
+    that rebuilds."""
+    box = make_box("periodic", (7.0, 7.0, 7.0))
+    sides = jnp.asarray(box.lengths)
+    displacement, shift = jmd_space.periodic(sides)
+    reference_fns = partition.neighbor_list(
+        displacement, sides, 1.0, dr_threshold=0.3, format=partition.Dense, disable_cell_list=True
+    )
+    rng = np.random.default_rng(3)
+    positions = jnp.asarray(rng.uniform(0, 7.0, (400, 3)))
+    moved = shift(positions, jnp.asarray(rng.normal(0, 0.2, (400, 3))))
+    reference = reference_fns.allocate(positions)
+    expected = listed(reference, 400)
+    expected_moved = listed(reference_fns.update(moved, reference), 400)
+    assert len(expected) > 1000 and expected_moved != expected
+    for fmt in (partition.OrderedSparse, partition.Sparse, partition.Dense):
+        fns = neighbor_list(box, 1.0, dr_threshold=0.3, format=fmt)
+        neighbors = fns.allocate(positions)
+        assert listed(neighbors, 400) == expected
+        neighbors = jax.jit(fns.update)(moved, neighbors)
+        assert not neighbors.did_buffer_overflow
+        assert listed(neighbors, 400) == expected_moved, fmt
+
+
+@pytest.mark.parametrize("kind", list(BOXES))
+def test_neighbor_list_and_jax_md_energy_in_deformed_boxes_match_brute_force(kind):
+    """In sheared and elongated boxes at three strains (one past 10⁶): the listed pairs
+    are the brute-force pairs within r_cutoff + dr_threshold, and jax-md's
+    soft_sphere_neighbor_list energy over them gives the brute-force forces (float32)."""
+    make, strains = BOXES[kind]
+    box, _, _ = make(0.0, jnp.float32)
+    displacement, shift = space(box)
+    _, energy_fn = energy.soft_sphere_neighbor_list(
+        displacement, jnp.asarray(box.lengths), sigma=SIGMA, epsilon=1.0, alpha=2.0
+    )
+    force_fn = jax.jit(lambda r, nbrs, state: -jax.grad(energy_fn)(r, nbrs, box=state))
+    fns = neighbor_list(box, SIGMA, dr_threshold=0.2)
+    tolerance = 30 * 10 * np.spacing(np.float32(max(box.lengths))) / SIGMA**2
+    for k, strain in enumerate([strains[1], strains[-3], strains[-1]]):
+        _, state, lattice = make(strain, jnp.float32)
+        raw = random_positions(lattice, 60, 10 + k, jnp.float32)[1]
+        positions = shift(raw, jnp.zeros_like(raw), box=state)  # into the primary cell
+        exact_positions = np.asarray(positions, np.float64)
+        neighbors = fns.allocate(positions, box=state)
+        assert listed(neighbors, 60) == brute_force_pairs(exact_positions, lattice, SIGMA + 0.2)
+        forces = np.asarray(force_fn(positions, neighbors, state), np.float64)
+        exact, _ = brute_force_forces(exact_positions, lattice)
+        assert np.max(np.abs(forces - exact)) < tolerance, strain
+
+
+def test_overflow_is_flagged_and_a_batch_reallocates_under_vmap():
+    """Two sheared replicas (own offsets) updated under vmap: squeezing one into half
+    the box overflows its list only; `allocate` on the batch gives one shape that holds
+    both, whose vmapped update lists the brute-force pairs with no overflow."""
+    box, _, _ = lees_edwards(0.0, jnp.float64)
+    fns = neighbor_list(box, 1.0, dr_threshold=0.2)
+    states, lattices = zip(*[lees_edwards(s, jnp.float64)[1:] for s in (0.4, 7.9)], strict=True)
+    batch_state = jax.tree.map(lambda *leaves: jnp.stack(leaves), *states)
+    positions = jnp.stack([random_positions(lat, 200, 20 + b, jnp.float64)[1] for b, lat in enumerate(lattices)])
+    _, shift = space(box)
+    positions = jax.vmap(lambda r, s: shift(r, jnp.zeros_like(r), box=s))(positions, batch_state)
+    neighbors = fns.allocate(positions, box=batch_state)
+    update = jax.jit(jax.vmap(lambda r, nbrs, s: fns.update(r, nbrs, box=s)))
+    squeezed = positions.at[1].multiply(0.5)  # stays in the primary box
+    flagged = update(squeezed, neighbors, batch_state)
+    assert list(np.asarray(flagged.did_buffer_overflow) != 0) == [False, True]
+    neighbors = fns.allocate(squeezed, box=batch_state)
+    refreshed = update(squeezed, neighbors, batch_state)
+    assert not np.any(np.asarray(refreshed.did_buffer_overflow))
+    for b, lattice in enumerate(lattices):
+        replica = jax.tree.map(lambda leaf, b=b: leaf[b], refreshed)
+        expected = brute_force_pairs(np.asarray(squeezed[b]), lattice, 1.2)
+        assert listed(replica, 200) == expected
