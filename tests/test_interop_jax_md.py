@@ -168,18 +168,22 @@ def test_neighbor_list_matches_jax_md_brute_force_on_a_periodic_box():
     expected = listed(reference, 400)
     expected_moved = listed(reference_fns.update(moved, reference), 400)
     assert len(expected) > 1000 and expected_moved != expected
-    for fmt in (partition.OrderedSparse, partition.Sparse, partition.Dense):
+    for fmt in (partition.Sparse, partition.Dense, partition.OrderedSparse):
         fns = neighbor_list(box, 1.0, dr_threshold=0.3, format=fmt)
         neighbors = fns.allocate(positions)
-        assert listed(neighbors, 400) == expected
-        neighbors = jax.jit(fns.update)(moved, neighbors)
-        assert not neighbors.did_buffer_overflow
-        assert listed(neighbors, 400) == expected_moved, fmt
+        assert listed(neighbors, 400) == expected, fmt
+    # One format through a rebuilding update (each costs a compilation), then into an
+    # overflow: the same particles squeezed into an eighth of the box.
+    update = jax.jit(fns.update)
+    refreshed = update(moved, neighbors)
+    assert not refreshed.did_buffer_overflow
+    assert listed(refreshed, 400) == expected_moved
+    assert update(0.5 * positions, neighbors).did_buffer_overflow
 
 
 @pytest.mark.parametrize("kind", list(BOXES))
 def test_neighbor_list_and_jax_md_energy_in_deformed_boxes_match_brute_force(kind):
-    """In sheared and elongated boxes at three strains (one past 10⁶): the listed pairs
+    """In sheared and elongated boxes at two strains (one past 10⁶): the listed pairs
     are the brute-force pairs within r_cutoff + dr_threshold, and jax-md's
     soft_sphere_neighbor_list energy over them gives the brute-force forces (float32)."""
     make, strains = BOXES[kind]
@@ -191,7 +195,7 @@ def test_neighbor_list_and_jax_md_energy_in_deformed_boxes_match_brute_force(kin
     force_fn = jax.jit(lambda r, nbrs, state: -jax.grad(energy_fn)(r, nbrs, box=state))
     fns = neighbor_list(box, SIGMA, dr_threshold=0.2)
     tolerance = 30 * 10 * np.spacing(np.float32(max(box.lengths))) / SIGMA**2
-    for k, strain in enumerate([strains[1], strains[-3], strains[-1]]):
+    for k, strain in enumerate([strains[3], strains[-1]]):
         _, state, lattice = make(strain, jnp.float32)
         raw = random_positions(lattice, 60, 10 + k, jnp.float32)[1]
         positions = shift(raw, jnp.zeros_like(raw), box=state)  # into the primary cell
@@ -203,6 +207,9 @@ def test_neighbor_list_and_jax_md_energy_in_deformed_boxes_match_brute_force(kin
         assert np.max(np.abs(forces - exact)) < tolerance, strain
 
 
+# Three allocations and two compilations of the vmapped cell list (~100 s on the
+# shared 2 cores): -m slow.  The default run flags an overflow in the periodic test.
+@pytest.mark.slow
 def test_overflow_is_flagged_and_a_batch_reallocates_under_vmap():
     """Two sheared replicas (own offsets) updated under vmap: squeezing one into half
     the box overflows its list only; `allocate` on the batch gives one shape that holds

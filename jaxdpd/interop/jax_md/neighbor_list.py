@@ -100,6 +100,13 @@ def _padded(pair_list, capacity: int, cell_capacity: int):
     )
 
 
+@functools.cache
+def _search(box, n: int, r_cutoff: float, dr_threshold: float):
+    """One cell list (and its compiled builds) per box, N, cut-off and skin, shared by
+    every list made for them, whatever the format."""
+    return cell_list_search(box, n, r_cutoff, dr_threshold)
+
+
 def neighbor_list(
     box,
     r_cutoff: float,
@@ -133,9 +140,8 @@ def neighbor_list(
             f"thinnest cell height {thinnest:.6g} of this {box.name!r} box (box.cell_heights)"
         )
 
-    @functools.cache
     def search(n: int):
-        return cell_list_search(box, n, r_cutoff, dr_threshold)
+        return _search(box, n, r_cutoff, dr_threshold)
 
     def read_out(pair_list, width: int):
         n = pair_list.reference_positions.shape[0]
