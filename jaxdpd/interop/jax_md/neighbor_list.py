@@ -170,7 +170,9 @@ def neighbor_list(
     def allocate_one(position, extra_capacity, box_state):
         n = position.shape[0]
         pair_list = search(n).allocate(position, capacity_multiplier, None, box_state)
-        pair_list = _padded(pair_list, pair_list.capacity + n * extra_capacity, pair_list.cell_capacity)
+        pair_list = _padded(
+            pair_list, pair_list.capacity + n * extra_capacity, pair_list.cell_capacity
+        )
         widest = int(np.max(np.asarray(_row_counts(pair_list, n))[:n]))
         width = min(n - 1, math.ceil(widest * capacity_multiplier) + extra_capacity)
         return pair_list, max(width, 1)

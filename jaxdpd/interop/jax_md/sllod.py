@@ -82,15 +82,12 @@ def sllod(
     force_fn = quantity.canonicalize_force(energy_or_force_fn)
     if gamma and kT is None:
         raise ValueError(f"gamma = {gamma}: a Langevin thermostat needs kT")
+    static_box, step_size = box, dt  # `box=` and `dt` below are per-call values
 
     def forces(position, box_state, velocity, step, kwargs):
         if velocity_dependent:
             kwargs = {**kwargs, "velocity": velocity, "step": step}
         return force_fn(position, box=box_state, **kwargs)
-
-    def masses_of(state):
-        """(N,) masses for the momentum sums, or None for one scalar mass."""
-        return None if jnp.ndim(state.mass) == 0 else state.mass
 
     def init_fn(key, R, velocity=None, mass=1.0, box=None, **kwargs):
         box_state = box if box is not None else static_box.initial_state(R.dtype)
@@ -99,20 +96,16 @@ def sllod(
         if velocity is None:
             if kT is None:
                 raise ValueError("init_fn: give velocity= or build the simulator with kT")
-            per_particle = mass[..., None] if jnp.ndim(mass) else mass
-            velocity = jax.random.normal(draw, R.shape, R.dtype) * jnp.sqrt(kT / per_particle)
-            velocity = velocity - _momentum_mean(velocity, None if jnp.ndim(mass) == 0 else mass)
+            velocity = jax.random.normal(draw, R.shape, R.dtype) * jnp.sqrt(kT / _rows(mass))
+            velocity = velocity - _centre_of_mass_velocity(velocity, _masses(mass))
         step = jnp.asarray(0, jnp.int32)
         force = forces(R, box_state, velocity, step, kwargs)
         return SLLODState(R, velocity, force, mass, box_state, step, key)
 
-    static_box = box
-    dt_ = dt
-
     def apply_fn(state, **kwargs):
         dtype = state.position.dtype
-        dt = jnp.asarray(dt_, dtype)
-        per_particle = state.mass[:, None] if jnp.ndim(state.mass) else state.mass
+        dt = jnp.asarray(step_size, dtype)
+        per_particle = _rows(state.mass)
         bound = static_box.bind(state.box)
         acceleration = state.force / per_particle
         drift = flows.drift_velocity(bound, state.position, state.velocity)
@@ -132,10 +125,10 @@ def sllod(
         rng = state.rng
         if gamma:
             rng, draw = jax.random.split(rng)
-            decay = jnp.exp(jnp.asarray(-gamma * dt_, dtype))
+            decay = jnp.exp(jnp.asarray(-gamma * step_size, dtype))
             spread = jnp.sqrt(kT * (1 - decay * decay) / per_particle)
             velocity = decay * velocity + spread * jax.random.normal(draw, velocity.shape, dtype)
-        velocity = flows.remove_momentum_drift(new_bound, velocity, masses_of(state))
+        velocity = flows.remove_momentum_drift(new_bound, velocity, _masses(state.mass))
         return state.set(
             position=position, velocity=velocity, force=force, box=box_state, step=step, rng=rng
         )
@@ -143,8 +136,18 @@ def sllod(
     return init_fn, apply_fn
 
 
-def _momentum_mean(velocity, mass):
-    """Σ m c / Σ m: the velocity of the centre of mass."""
-    if mass is None:
+def _rows(mass):
+    """Masses broadcastable against (N, 3) vectors."""
+    return mass[:, None] if jnp.ndim(mass) else mass
+
+
+def _masses(mass):
+    """(N,) masses for momentum sums, or None for one scalar mass (unit weights)."""
+    return mass if jnp.ndim(mass) else None
+
+
+def _centre_of_mass_velocity(velocity, masses):
+    """Σ m c / Σ m (the mean for equal masses)."""
+    if masses is None:
         return jnp.mean(velocity, axis=0)
-    return (mass @ velocity) / jnp.sum(mass)
+    return (masses @ velocity) / jnp.sum(masses)
