@@ -388,3 +388,23 @@ def test_dpd_sheared_through_jax_md_matches_jaxdpd_viscosity_and_profile():
     eta_ref, eta_ref_error = (v / shear_rate for v in block_average(jaxdpd_stress, n_blocks=20))
     print("η interop", eta, "±", eta_error, "η jaxdpd", eta_ref, "±", eta_ref_error)
     assert abs(eta - eta_ref) < 4 * np.hypot(eta_error, eta_ref_error)
+
+
+def test_flowing_boxes_refuse_calls_without_their_state_and_too_long_cutoffs():
+    """A forgotten box state is an error (or NaN from the displacement, which jax-md
+    probes for its shape); a cut-off plus skin beyond half the thinnest cell height is
+    refused (the minimum image would be ambiguous)."""
+    box, state, _ = lees_edwards(0.3, jnp.float64)
+    displacement, shift = space(box)
+    r = jnp.ones((4, 3))
+    assert np.all(np.isnan(np.asarray(displacement(r[0], r[1]))))
+    assert np.all(np.isfinite(np.asarray(displacement(r[0], r[1], box=state))))
+    with pytest.raises(TypeError, match="shift_fn.*lees_edwards"):
+        shift(r, r)
+    with pytest.raises(TypeError, match="allocate.*lees_edwards"):
+        neighbor_list(box, 1.0).allocate(r)
+    half = min(box.cell_heights) / 2
+    with pytest.raises(ValueError, match="r_cutoff \\+ dr_threshold"):
+        neighbor_list(box, half - 0.1, dr_threshold=0.2)
+    with pytest.raises(ValueError, match="format"):
+        neighbor_list(box, 1.0, format="dense")

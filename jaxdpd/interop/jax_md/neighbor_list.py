@@ -28,6 +28,7 @@ from jax_md import partition
 
 from jaxdpd.geometry.neighbors.cell_list import cell_list_search
 from jaxdpd.geometry.neighbors.pair_list import PairList
+from jaxdpd.interop.jax_md.space import require_state
 
 FORMATS = (partition.Dense, partition.Sparse, partition.OrderedSparse)
 PEC = partition.PartitionErrorCode
@@ -130,6 +131,7 @@ def neighbor_list(
             the thinnest cell height of the box (the minimum image would be
             ambiguous: jax-md issue 200).
     """
+    static_box = box  # `box=` below is the per-call state, as in jax-md
     if format not in FORMATS:
         raise ValueError(f"format = {format!r}; valid: {[f.name for f in FORMATS]}")
     list_cutoff = r_cutoff + dr_threshold
@@ -180,6 +182,7 @@ def neighbor_list(
     def allocate_fn(position, extra_capacity: int = 0, box=None, **unused_kwargs):
         """A list sized for `position` (N, 3), or one shape for a batch (B, N, 3) with
         a batched box state."""
+        require_state(static_box, box, "allocate(position, box=)")
         if jnp.ndim(position) == 2:
             pair_list, width = allocate_one(position, extra_capacity, box)
             return wrap(pair_list, width, *read_out(pair_list, width))
@@ -199,6 +202,7 @@ def neighbor_list(
     def update_fn(position, neighbors, box=None, **unused_kwargs):
         """The list for `position`, rebuilt if a pair may have come within r_cutoff
         unlisted; keeps the shapes (jittable, vmappable)."""
+        require_state(static_box, box, "update(position, neighbors, box=)")
         old = neighbors.pair_list
         pair_list = search(position.shape[0]).update(position, old, box)
         width = neighbors.max_occupancy

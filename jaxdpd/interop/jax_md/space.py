@@ -18,6 +18,21 @@ import jax.numpy as jnp
 from jax_md import space as jmd_space
 
 
+def has_state(box) -> bool:
+    """Whether the box changes with time (Lees–Edwards, Kraynik–Reinelt): its
+    functions then need the box state per call."""
+    return box.initial_state(jnp.float32) is not None
+
+
+def require_state(box, state, where: str):
+    """Raise a TypeError naming `where` if a flowing box was given no state."""
+    if state is None and has_state(box):
+        raise TypeError(
+            f"{where}: a {box.name!r} box needs its state on every call "
+            "(box.initial_state(dtype), moved on by box.advance); got None"
+        )
+
+
 def space(box):
     """`(displacement_fn, shift_fn)` of a jaxdpd box with jax-md's conventions.
 
@@ -39,7 +54,7 @@ def space(box):
         TypeError: (at trace time) `shift_fn` of a flowing box without a box state.
     """
     static_box = box  # the keyword `box=` below is the state, as in jax-md
-    stateful = static_box.initial_state(jnp.float32) is not None
+    stateful = has_state(static_box)
 
     def displacement_fn(Ra, Rb, box=None, perturbation=None, **unused_kwargs):
         if stateful and box is None:
@@ -51,11 +66,7 @@ def space(box):
 
     def shift_fn(R, dR, box=None, new_box=None, **unused_kwargs):
         state = box if new_box is None else new_box
-        if stateful and state is None:
-            raise TypeError(
-                f"shift_fn(..., box=): a {static_box.name!r} space needs the box state "
-                "(box.initial_state(dtype), moved on by box.advance); got None"
-            )
+        require_state(static_box, state, "shift_fn(R, dR, box=)")
         target = static_box.bind(state)
         moved = jnp.reshape(R + dR, (-1, 3))
         wrapped, _ = target.wrap(moved, jnp.zeros(moved.shape, jnp.int32))
