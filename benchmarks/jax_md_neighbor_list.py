@@ -12,7 +12,7 @@ noisy and only the same-run ratio means much.
 
 Usage: python benchmarks/jax_md_neighbor_list.py [--sizes 3000] [--steps 200]
        [--rounds 5] [--format ordered_sparse]
-Writes benchmarks/results/jax_md_neighbor_list.json.
+Writes benchmarks/results/jax_md_neighbor_list_<format>.json.
 """
 
 import argparse
@@ -109,7 +109,7 @@ def main() -> None:
     columns = ["N", "format", "jax_md_ms_per_step", "jaxdpd_ms_per_step", "speedup"]
     print_table(columns, rows)
     print("(shared, noisy machine: compare the same-run ratio, not the absolute times)")
-    path = write_json("jax_md_neighbor_list", {"args": vars(args), "rows": rows})
+    path = write_json(f"jax_md_neighbor_list_{args.format}", {"args": vars(args), "rows": rows})
     print(f"wrote {path}")
 
 
