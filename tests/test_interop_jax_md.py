@@ -408,3 +408,29 @@ def test_flowing_boxes_refuse_calls_without_their_state_and_too_long_cutoffs():
         neighbor_list(box, half - 0.1, dr_threshold=0.2)
     with pytest.raises(ValueError, match="format"):
         neighbor_list(box, 1.0, format="dense")
+
+
+def test_sllod_streams_free_particles_with_planar_elongation_across_resets():
+    """Without forces each particle follows the flow, r(t) − r0 = F(ε̇t)(r(0) − r0),
+    F = diag(e^−ε, 1, e^ε) (thesis eq. 5.12), through two Kraynik–Reinelt resets
+    (ε̇t = 2 > 2 ε_p), up to a lattice vector of the thesis lattice at that strain.
+    Tolerance: velocity Verlet streams with 1 + ΔtL + ½Δt²L², off e^{ΔtL} by
+    (ε̇Δt)³/6 per step (jaxdpd.geometry.flows), accumulated over the steps."""
+    rate, dt, steps = 0.5, 0.01, 400
+    box = make_box("kraynik_reinelt", KR_LENGTHS)
+    box = type(box)(KR_LENGTHS, rate)
+    _, _, lattice = kraynik_reinelt(0.0, jnp.float64)
+    start, _ = random_positions(lattice, 20, 6, jnp.float64)
+    centre = np.asarray(box.centre)
+    init_fn, apply_fn = sllod(lambda r, **kwargs: jnp.zeros_like(r), box, dt)
+    state = init_fn(jax.random.PRNGKey(0), jnp.asarray(start), velocity=jnp.zeros((20, 3)))
+    state = jax.lax.fori_loop(0, steps, lambda _, s: apply_fn(s), state)
+    strain = rate * dt * steps
+    assert abs(float(state.box.strain) - math.remainder(strain, box.period)) < 1e-12
+    _, _, lattice = kraynik_reinelt(strain, jnp.float64)
+    stretched = centre + (start - centre) * np.exp([-strain, 0.0, strain])
+    fractions = np.linalg.solve(lattice, (np.asarray(state.position) - stretched).T)
+    reach = np.max(np.abs(stretched - centre)) / min(box.cell_heights)
+    tolerance = 2 * steps * (rate * dt) ** 3 / 6 * reach
+    assert np.max(np.abs(fractions - np.round(fractions))) < tolerance
+    assert np.max(np.abs(fractions)) >= 1  # the resets did move particles back
