@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from conftest import make_scene
 from io_runs import assert_same_leaves, reference_run
-from jax_md import dataclasses as jmd_dataclasses
 
+from jaxdpd import pytree
 from jaxdpd.engine.build import build
 from jaxdpd.io import (
     RunFileError,
@@ -41,15 +41,15 @@ def other_relax(x):
     return x
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class FluidState:
     """A stand-in for a lattice-Boltzmann solvent state added later by someone else."""
 
     populations: jnp.ndarray
     moments: dict
-    lattice: Lattice = jmd_dataclasses.static_field(default=Lattice.D3Q19)
-    grid: tuple = jmd_dataclasses.static_field(default=(4, 4, 4))
-    collide: object = jmd_dataclasses.static_field(default=relax)
+    lattice: Lattice = pytree.static_field(default=Lattice.D3Q19)
+    grid: tuple = pytree.static_field(default=(4, 4, 4))
+    collide: object = pytree.static_field(default=relax)
 
 
 class BoxState(NamedTuple):
@@ -57,7 +57,7 @@ class BoxState(NamedTuple):
     strain: jnp.ndarray
 
 
-@jmd_dataclasses.dataclass
+@pytree.dataclass
 class FutureState:
     positions: jnp.ndarray
     solvent_state: FluidState

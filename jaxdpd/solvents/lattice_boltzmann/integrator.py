@@ -179,9 +179,7 @@ def coupled_step(
         midpoint, velocities = drift(middle, state.positions, velocities)
         located, _ = middle.wrap(midpoint, state.image)
         stencil = lees_edwards.image_stencil(located, middle, fluid.grid_spacing, fluid.nodes)
-        laminar = lees_edwards.streaming_at_nodes(
-            stencil, middle, fluid.grid_spacing, fluid.nodes
-        )
+        laminar = lees_edwards.streaming_at_nodes(stencil, middle, fluid.grid_spacing, fluid.nodes)
         fluid_velocities = fluid_velocity_at(state.solvent_state, stencil) - laminar
         return middle, midpoint, velocities, stencil, fluid_velocities
 
