@@ -180,7 +180,7 @@ SCENES = {
         integrator={"dt": 0.04},
         flow=ELONGATION,
     ),
-    "hoogerbrugge_koelman_rest": HOOGERBRUGGE_KOELMAN,
+    "hoogerbrugge_koelman_rest": HK_FLUID,
     "hoogerbrugge_koelman_shear": _with(HK_FLUID, flow=HK_SHEAR),
     "hoogerbrugge_koelman_oscillatory_shear": _with(
         HK_FLUID, flow={**HK_SHEAR, "oscillation_frequency": 0.1}
