@@ -290,9 +290,9 @@ def mpcd_cycle(
     over the cycle, as for the Hoogerbrugge–Koelman impulses); in a flowing box
     "streaming", the free-flight drift of the solvent's kinetic stress
     (`free_flight_stress`; the monomers' kinetic stress is sampled at the collision).
-    In planar elongation the round-off of the total peculiar momentum is removed
-    after the collision (flows.EXPONENTIAL_MOMENTUM_DRIFT) if `closed_system` (the
-    collision conserves momentum; not the Rouse variant, whose bath does not).
+    In planar elongation, and in oscillatory shear with monomers, the drift of the total
+    peculiar momentum is removed after the collision if `closed_system` (the collision
+    conserves momentum; not the Rouse variant, whose bath does not).
 
     Args:
         box: the static box (bound to the state's box_state; its `wrap` moves
@@ -312,7 +312,13 @@ def mpcd_cycle(
         `step(state) -> state`, one collision per step; time advances by h.
     """
     h = jnp.asarray(collision_time, dtype)
-    remove_drift = closed_system and box.flow_kind in flows.EXPONENTIAL_MOMENTUM_DRIFT
+    # The round-off of Σ m c grows exponentially in elongation; in oscillatory shear the
+    # solvent's flight (γ̇ at both ends of h) and the monomers' sub-steps sample γ̇(t) at
+    # different times, so their SLLOD drags differ by O(h² d²γ̇/dt²) and Σ m c drifts.
+    oscillating = getattr(box, "oscillation_frequency", None) is not None
+    remove_drift = closed_system and (
+        box.flow_kind in flows.EXPONENTIAL_MOMENTUM_DRIFT or (oscillating and monomers is not None)
+    )
 
     def stream_monomers(state, first, stop):
         rows = slice(first, stop)
