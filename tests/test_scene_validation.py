@@ -229,8 +229,9 @@ def test_component_checks_raise_scene_errors_naming_the_field(sections, field):
     """Checks owned by components (solvent fields, flows, observables, polymers) reach
     the user as SceneError with the field's dotted path, like the field readers'."""
     data = scene_dict(**sections)
-    if "flow" in sections:
-        data["solvent"] = {"method": "mpcd"}
+    if "flow" in sections:  # the one solvent without an elongation step
+        method = "lattice_boltzmann"
+        data["solvent"] = {"method": method, **REQUIRED_SOLVENT_FIELDS[method]}
     with pytest.raises(SceneError) as raised:
         Scene.from_dict(data)
     assert raised.value.field == field

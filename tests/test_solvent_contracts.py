@@ -248,3 +248,95 @@ def test_unknown_solvent_field_is_named(method):
     with pytest.raises(SceneError, match="no_such_field") as caught:
         Scene.from_dict(data)
     assert caught.value.field.startswith("solvent")
+
+
+# -- flows -----------------------------------------------------------------------------
+# Each flow a method declares (`SolventMethod.flows`; oscillatory shear with every shear
+# step) runs its example scene; each flow it does not declare is refused by name.  The
+# tests check the bookkeeping of the flowing box, not its physics (that is in each
+# method's own flow tests, docs/solvent_flows/README.md), so the rates are gentle in
+# each method's own time unit: STRAIN_PER_STEP of strain per step.
+STRAIN_PER_STEP = 0.002
+FLOWS = {
+    "shear": {"kind": "shear"},
+    "oscillatory_shear": {"kind": "shear", "oscillation_frequency": 0.5},
+    "planar_elongation": {"kind": "planar_elongation"},
+}
+RATE_FIELDS = {"shear": "shear_rate", "planar_elongation": "elongation_rate"}
+FLOW_STEPS = 4 * CHUNK
+
+
+def enlarged(data: dict) -> dict:
+    """The scene with its box edges doubled and its particle counts times 8: the example
+    boxes are too thin for their springs in a Kraynik–Reinelt lattice, whose reduced cell
+    is thinner than its edge (a spring must stay within half the thinnest height)."""
+    particles = data["particles"]
+    particles["count"] = 8 * particles["count"]
+    for species in particles.get("species", []):
+        if "count" in species:
+            species["count"] = 8 * species["count"]
+    if "lengths" in data.get("box", {}):
+        data["box"]["lengths"] = [2 * edge for edge in data["box"]["lengths"]]
+    return data
+
+
+def flow_scene_dict(method, flow: str) -> dict:
+    """The method's float64 example scene in `flow` (with the cell list, the only
+    neighbour search that knows the Lees–Edwards and Kraynik–Reinelt boundaries)."""
+    data = method.example_scene("float64")
+    step_time = Scene.from_dict(data).step_time
+    kind = FLOWS[flow]["kind"]
+    data["flow"] = {**FLOWS[flow], RATE_FIELDS[kind]: STRAIN_PER_STEP / step_time}
+    data["neighbors"] = {**data.get("neighbors", {}), "method": "cell_list"}
+    return enlarged(data) if kind == "planar_elongation" else data
+
+
+def declares(method, flow: str) -> bool:
+    return FLOWS[flow]["kind"] in method.flows
+
+
+FLOW_CASES = [(m, f) for m in METHODS for f in FLOWS]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("method", "flow"), [c for c in FLOW_CASES if declares(*c)], ids=lambda x: getattr(x, "name", x)
+)
+def test_declared_flow_runs_and_conserves_peculiar_momentum(method, flow):
+    """The example scene runs FLOW_STEPS steps in the flow without an error flag, the box
+    clock advances by the simulated time, and where the method conserves momentum the
+    total peculiar momentum Σ m c stays at its start to round-off (the bound and its
+    derivation of `test_momentum_conserved_where_claimed`: a Lees–Edwards or
+    Kraynik–Reinelt image exchanges the streaming velocity, not peculiar momentum)."""
+    scene = Scene.from_dict(flow_scene_dict(method, flow))
+    simulation = build(scene)
+    start = simulation.init_fn()
+    final = advance(simulation, start, FLOW_STEPS // CHUNK)
+    assert int(final.flags) == 0
+    assert int(final.step) == FLOW_STEPS
+    assert float(final.time) == pytest.approx(FLOW_STEPS * scene.step_time, rel=1e-12)
+    for leaf in (final.positions, final.velocities):
+        assert np.all(np.isfinite(np.asarray(leaf)))
+    if method.conserves_particle_momentum:
+        n = scene.n_particles
+        masses = masses_of(simulation, n)
+        scale = max(
+            float(np.max(masses * np.linalg.norm(np.asarray(s.velocities, float), axis=1)))
+            + scene.step_time * float(np.max(np.linalg.norm(np.asarray(s.forces, float), axis=1)))
+            for s in (start, final)
+        )
+        tolerance = FLOW_STEPS * 100 * np.finfo(np.float64).eps * n * scale
+        drift = np.max(np.abs(momentum(simulation, final) - momentum(simulation, start)))
+        assert drift < tolerance, (drift, tolerance)
+
+
+@pytest.mark.parametrize(
+    ("method", "flow"),
+    [c for c in FLOW_CASES if not declares(*c)],
+    ids=lambda x: getattr(x, "name", x),
+)
+def test_undeclared_flow_is_refused_naming_the_fields(method, flow):
+    with pytest.raises(SceneError) as raised:
+        Scene.from_dict(flow_scene_dict(method, flow))
+    message = str(raised.value)
+    assert "flow.kind" in message and "solvent.method" in message
