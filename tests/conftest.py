@@ -1,11 +1,30 @@
 """Shared helpers: small scenes for fast tests."""
 
 import copy
+import os
+import tempfile
 
-import pytest
+# XLA compilation is most of the test time; tests (and the command-line runs they
+# start, which inherit the environment) build the same small scenes again and again, so
+# compiled programs are shared through JAX's persistent cache (keyed by the program, the
+# JAX version and the flags: a changed program never hits a stale entry).
+os.environ.setdefault(
+    "JAX_COMPILATION_CACHE_DIR",
+    os.path.join(tempfile.gettempdir(), f"jaxdpd-tests-xla-cache-{os.getuid()}"),
+)
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.05")
 
-import jaxdpd
-from jaxdpd.scene import Scene
+import jax  # noqa: E402  (after the cache settings it reads)
+import pytest  # noqa: E402
+
+import jaxdpd  # noqa: E402
+from jaxdpd.scene import Scene  # noqa: E402
+
+jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
+jax.config.update(
+    "jax_persistent_cache_min_compile_time_secs",
+    float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]),
+)
 
 # The tests call engine internals (boxes, neighbour lists, forces) on float64 arrays
 # of their own, before or without a build: switch 64-bit types on for the session.

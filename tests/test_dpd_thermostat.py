@@ -18,6 +18,7 @@ from jaxdpd.run import driver
 INTEGRATOR_BIAS_BOUND = 0.01 * 0.01 / 0.04
 
 
+@pytest.mark.slow  # 4000 steps: the contract test checks DPD's equipartition by default
 def test_temperature_and_maxwellian_velocities_at_dt_001():
     scene = make_scene(
         precision="float32",

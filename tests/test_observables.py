@@ -136,6 +136,7 @@ class ToyMomentum(Observable):
         return sample
 
 
+@pytest.mark.slow  # tests/test_toy_components.py registers one in the default run
 def test_a_toy_observable_is_one_class_and_one_register_line():
     """Registering an observable gives it its [output] setting, its sample in the step
     (after the built-in ones, which are unchanged), its series and its unit."""

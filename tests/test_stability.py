@@ -229,6 +229,7 @@ def small_dumbbell_solution():
     return fene_dumbbell_solution(0.04, 3.0, shear_rate=None, count=300, precision="float64")
 
 
+@pytest.mark.slow  # about 45 s; pathwise derivatives are also in test_brownian_fit
 def test_short_pathwise_derivative_equals_central_finite_differences():
     """Over 20 steps the trajectory is a smooth function of H (same counter-based
     noise for every H), so jvp must equal the central difference
