@@ -3,9 +3,11 @@
 Refactors must not cost speed.  This script checks out `--base` into a temporary
 git worktree and runs the same throughput benchmarks (DPD fluid, lattice-Boltzmann
 lattice and chain, MPCD fluid) in both trees, alternating base and head round after
-round so that a machine whose load drifts affects both alike; each benchmark run is
-a fresh process using its own tree's code (`PYTHONPATH`).  It reports, per figure,
-the best of the rounds for each tree and the ratio head/base.
+round (which goes first alternates too) so that a machine whose load drifts affects
+both alike; each benchmark run is a fresh process using its own tree's code
+(`PYTHONPATH`).  It reports, per figure, the best of the rounds for each tree, their
+ratio head/base, and each round's ratio: their spread is the noise a difference must
+exceed to mean anything.
 
 Usage:
     python benchmarks/revision_throughput.py --base c87a54c [--rounds 3]
@@ -94,10 +96,17 @@ def main() -> None:
         )
         try:
             best = {"base": {}, "head": {}}
+            ratios = {}  # figure -> head/base of each round
+            trees = [("base", base_tree), ("head", REPOSITORY)]
             for round_number in range(args.rounds):
-                for label, tree in (("base", base_tree), ("head", REPOSITORY)):
-                    for name, value in measure(tree).items():
+                figures = {}
+                # Alternate which tree goes first, so that a drifting load favours neither.
+                for label, tree in trees if round_number % 2 == 0 else trees[::-1]:
+                    figures[label] = measure(tree)
+                    for name, value in figures[label].items():
                         best[label][name] = max(value, best[label].get(name, 0.0))
+                for name, value in figures["head"].items():
+                    ratios.setdefault(name, []).append(value / figures["base"][name])
                 print(f"round {round_number + 1}/{args.rounds} done", flush=True)
         finally:
             subprocess.run(
@@ -111,10 +120,11 @@ def main() -> None:
             "base": best["base"][name],
             "head": best["head"][name],
             "head/base": best["head"][name] / best["base"][name],
+            "round ratios": " ".join(f"{ratio:.3f}" for ratio in ratios[name]),
         }
         for name in best["base"]
     ]
-    print_table(["figure", "base", "head", "head/base"], rows)
+    print_table(["figure", "base", "head", "head/base", "round ratios"], rows)
     path = write_json("revision_throughput", {"base": args.base, "rounds": rows})
     print(f"wrote {path}")
 
