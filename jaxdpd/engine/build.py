@@ -179,11 +179,13 @@ def force_kernel(
                 virial["spring_repulsion"] = segment_virial(geometry, magnitude)
         return vectors, virial, spring_pairs, bits
 
-    def pair_interactions(bound_box, positions, velocities, state):
+    def pair_interactions(bound_box, positions, velocities, state, refresh):
         """Σ of the pair terms: per-particle vectors, virial parts, refreshed pair list."""
         if search is None:
             return jnp.zeros_like(positions), {}, state.pair_list
-        pair_list = search.update(positions, state.pair_list, state.box_state)
+        pair_list = state.pair_list
+        if refresh:
+            pair_list = search.update(positions, pair_list, state.box_state)
         if not terms:  # the list serves the thermostat alone
             return jnp.zeros_like(positions), {}, pair_list
         geometry = pair_geometry(bound_box, positions, pair_list, cutoff, search.half)
@@ -195,16 +197,20 @@ def force_kernel(
         vectors, virial = pair_sums(geometry, parts, with_virial)
         return vectors, virial, pair_list
 
-    def interactions(positions, velocities, state):
+    def interactions(positions, velocities, state, refresh_pairs: bool = True):
         """Pair terms plus the springs of every chain block (and their mutual
-        repulsion), in the box of `state`.
+        repulsion), in the box of `state`.  `refresh_pairs` False reads the pair list
+        as it is: for a list just built from these positions (the initial forces),
+        which an update would leave unchanged, without tracing the cell list again.
 
         Returns:
             (per-particle vectors, virial parts {name: (3, 3)}, the state with its
             neighbour lists refreshed, error bits).
         """
         bound_box = box.bind(state.box_state)
-        vectors, virial, pair_list = pair_interactions(bound_box, positions, velocities, state)
+        vectors, virial, pair_list = pair_interactions(
+            bound_box, positions, velocities, state, refresh_pairs
+        )
         state = state.set(pair_list=pair_list)
         if body_force is not None:
             vectors = vectors + body_force(positions, state.parameters["body_force"]["amplitude"])
@@ -361,9 +367,10 @@ def build(scene: Scene) -> Simulation:
         if stop > first and solvent.initial_forces:
             rows = slice(first, stop)
             sub = state.set(image=image[rows], species=species[rows])
-            forces, virial, refreshed, bits = jax.jit(interactions)(
-                positions[rows], velocities[rows], sub
-            )
+            # The pair list was built from these positions just above: the kernel reads
+            # it as it is, so this program does not compile the cell list a second time.
+            initial_forces = jax.jit(functools.partial(interactions, refresh_pairs=False))
+            forces, virial, refreshed, bits = initial_forces(positions[rows], velocities[rows], sub)
             state = state.set(
                 forces=state.forces.at[rows].set(forces),
                 virial={**state.virial, **virial},
