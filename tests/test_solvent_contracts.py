@@ -81,6 +81,19 @@ def momentum(simulation, state) -> np.ndarray:
     return masses_of(simulation, velocities.shape[0]) @ velocities
 
 
+def momentum_round_off(simulation, scene, states, steps: int) -> float:
+    """The bound on the round-off drift of Σ m v over `steps` steps derived in
+    `test_momentum_conserved_where_claimed`: steps · 100 ε N p_scale, p_scale the
+    largest m|v| + Δt_step |F| over `states`."""
+    masses = masses_of(simulation, scene.n_particles)
+    scale = max(
+        float(np.max(masses * np.linalg.norm(np.asarray(s.velocities, float), axis=1)))
+        + scene.step_time * float(np.max(np.linalg.norm(np.asarray(s.forces, float), axis=1)))
+        for s in states
+    )
+    return steps * 100 * np.finfo(np.float64).eps * scene.n_particles * scale
+
+
 def test_example_scene_is_valid_and_round_trips(run):
     """The example scene is valid and its resolved form reads back to itself."""
     assert run.scene.solvent.method == run.method.name
@@ -104,16 +117,8 @@ def test_momentum_conserved_where_claimed(run):
     if not run.method.conserves_particle_momentum:
         pytest.skip(f"{run.method.name} does not claim particle momentum conservation")
     simulation, states = run.simulation, [run.start, *run.states]
-    n = run.scene.n_particles
-    masses = masses_of(simulation, n)
-    dt = run.scene.step_time
-    scale = max(
-        float(np.max(masses * np.linalg.norm(np.asarray(s.velocities, float), axis=1)))
-        + dt * float(np.max(np.linalg.norm(np.asarray(s.forces, float), axis=1)))
-        for s in states
-    )
     steps = CHUNK * (EQUILIBRATION + SAMPLES * SPACING)
-    tolerance = steps * 100 * np.finfo(np.float64).eps * n * scale
+    tolerance = momentum_round_off(simulation, run.scene, states, steps)
     start = momentum(simulation, states[0])
     for state in states[1:]:
         drift = np.max(np.abs(momentum(simulation, state) - start))
@@ -318,14 +323,7 @@ def test_declared_flow_runs_and_conserves_peculiar_momentum(method, flow):
     for leaf in (final.positions, final.velocities):
         assert np.all(np.isfinite(np.asarray(leaf)))
     if method.conserves_particle_momentum:
-        n = scene.n_particles
-        masses = masses_of(simulation, n)
-        scale = max(
-            float(np.max(masses * np.linalg.norm(np.asarray(s.velocities, float), axis=1)))
-            + scene.step_time * float(np.max(np.linalg.norm(np.asarray(s.forces, float), axis=1)))
-            for s in (start, final)
-        )
-        tolerance = FLOW_STEPS * 100 * np.finfo(np.float64).eps * n * scale
+        tolerance = momentum_round_off(simulation, scene, (start, final), FLOW_STEPS)
         drift = np.max(np.abs(momentum(simulation, final) - momentum(simulation, start)))
         assert drift < tolerance, (drift, tolerance)
 
