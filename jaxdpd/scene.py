@@ -69,6 +69,10 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 "sparse" | "ordered_sparse"; skin ≥ 0; capacity_multiplier ≥ 1;
                 spring_skin ≥ 0 (default 0.5: skin of the spring-pair list, used with
                 [spring_repulsion] or the "spring_pairs" observable)
+    [parallel]  devices ≥ 1 (one system cut into that many slabs, one per device;
+                jaxdpd.decomposition, docs/scaling_out.md); axis = "x" | "y" | "z"
+                (default: the box's longest edge it may cut: y in flow); margin ≥ 0
+                (default 0.5 r_c: added to the reach for the halo)
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation", "dynamics", "profile",
@@ -94,6 +98,7 @@ import tomllib
 from dataclasses import asdict, dataclass, field
 from fractions import Fraction
 
+from jaxdpd.decomposition.requirements import check_scene as check_decomposition
 from jaxdpd.forces.bonds import read_bond
 from jaxdpd.forces.pair_laws import PAIR_LAWS, Pair, read_pair
 from jaxdpd.forces.spring_repulsion import SPRING_REPULSION_LAWS
@@ -256,6 +261,21 @@ class Neighbors:
 
 
 @dataclass(frozen=True)
+class Parallel:
+    """[parallel]: one system decomposed over devices (jaxdpd.decomposition).
+
+    devices: slabs, one per device (1: the whole system on one device); axis: the
+    frame axis cut into slabs ("x", "y", "z"; None: the box's default); margin: how
+    far two particles may approach each other within one step beyond the
+    interaction reach (r_c), which widens the halo.
+    """
+
+    devices: int = 1
+    axis: str | None = None
+    margin: float = 0.5
+
+
+@dataclass(frozen=True)
 class Run:
     """Run length and chunking (steps per jitted `lax.scan`)."""
 
@@ -318,6 +338,7 @@ class Scene:
     body_force: BodyForce | None = None
     spring_repulsion: SpringRepulsion | None = None
     neighbors: Neighbors = field(default_factory=Neighbors)
+    parallel: Parallel = field(default_factory=Parallel)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
 
@@ -378,6 +399,7 @@ class Scene:
                 "body_force",
                 "spring_repulsion",
                 "neighbors",
+                "parallel",
                 "run",
                 "output",
             ),
@@ -466,11 +488,14 @@ class Scene:
             body_force=body_force,
             spring_repulsion=spring_repulsion,
             neighbors=neighbors,
+            parallel=_read_parallel(data.get("parallel", {})),
             run=run,
             output=output,
         )
         method.check(scene)
         _check_observables(scene)
+        if scene.parallel.devices > 1:
+            check_decomposition(scene)
         return scene
 
     # -- derived quantities --------------------------------------------------------
@@ -574,6 +599,10 @@ class Scene:
                     if (value := getattr(self.flow, name)) is not None
                 },
             }
+        if self.parallel.devices == 1:
+            del data["parallel"]
+        elif self.parallel.axis is None:
+            del data["parallel"]["axis"]
         if self.neighbors.method != "jax_md":
             del data["neighbors"]["format"]
         if self.neighbors.method == "all_pairs":
@@ -887,6 +916,15 @@ def _read_integrator(section, method: SolventMethod, solvent: SolventParameters)
     integrator = Integrator(dt=dt, lambda_=lam)
     method.check_integrator(solvent, section, integrator)
     return integrator
+
+
+def _read_parallel(section) -> Parallel:
+    check_keys(section, ("devices", "axis", "margin"), "parallel")
+    return Parallel(
+        devices=read_number(section, "devices", "parallel", 1, minimum=1, integer=True),
+        axis=read_choice(section, "axis", "parallel", ("x", "y", "z"), None),
+        margin=read_number(section, "margin", "parallel", 0.5, minimum=0),
+    )
 
 
 def _read_run(section) -> Run:

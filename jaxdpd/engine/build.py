@@ -288,7 +288,13 @@ def build(scene: Scene) -> Simulation:
     """Compose the scene's simulation (see the module docstring).
 
     Cached per scene, so building an equal scene again reuses the compiled chunks.
+    A scene with parallel.devices > 1 is decomposed over devices
+    (jaxdpd.decomposition.simulation.build_decomposed).
     """
+    if scene.parallel.devices > 1:
+        from jaxdpd.decomposition.simulation import build_decomposed
+
+        return build_decomposed(scene)
     enable_float64()  # any scene: uint64 cell words, int64 keys (jaxdpd.precision)
     dtype = jnp.dtype(scene.precision)
     box = make_box(scene.box.kind, scene.box.lengths, scene.flow)

@@ -49,6 +49,13 @@ class StepError(enum.IntFlag):
         "noise too strong for the node mass; reduce solvent.time_step, raise "
         "solvent.density or lower the forcing",
     )
+    DOMAIN_REACH = (
+        64,
+        "in a decomposed run, a particle moved farther in one step than "
+        "parallel.margin allows, or a bond grew longer than the halo (the interaction "
+        "reach plus parallel.margin): raise parallel.margin (slabs must stay at least "
+        "one halo thick) or reduce integrator.dt",
+    )
     NEIGHBOR_OVERFLOW = 1, "neighbour list overflow (buffers too small)"
     NON_FINITE = (
         2,

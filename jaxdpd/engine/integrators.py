@@ -46,6 +46,7 @@ def modified_velocity_verlet(
     dtype,
     masses=None,
     closed_system: bool = True,
+    ownership=None,
 ):
     """Groot–Warren modified velocity Verlet (thesis eq. 2.10), a = f/m:
 
@@ -66,7 +67,8 @@ def modified_velocity_verlet(
     round-off of the total peculiar momentum is removed (it grows exponentially in
     elongation); the box state advances with the step.  MPCD monomers are not a
     closed system (they exchange momentum with the solvent in the collisions).  A box at
-    rest traces none of this.
+    rest traces none of this.  In a decomposed run `ownership`
+    (jaxdpd.engine.ownership) says which rows the system's momentum counts.
     """
     dt_ = jnp.asarray(dt, dtype)
     lam = jnp.asarray(lambda_, dtype)
@@ -101,7 +103,7 @@ def modified_velocity_verlet(
         )
         velocities = flows.implicit_sllod_velocity(new_bound, right_hand_side, dt_)
         if closed_system:
-            velocities = flows.remove_momentum_drift(new_bound, velocities, masses)
+            velocities = flows.remove_momentum_drift(new_bound, velocities, masses, ownership)
         return advanced.set(
             velocities=velocities,
             forces=new_forces,
@@ -181,7 +183,9 @@ def free_flight(bound, new_bound, positions, velocities, duration):
     )
 
 
-def collide_and_stream(box, dt: float, interactions, kT: float, dtype, with_virial=False):
+def collide_and_stream(
+    box, dt: float, interactions, kT: float, dtype, with_virial=False, ownership=None
+):
     """Hoogerbrugge–Koelman step: pair collision, then free flight over δt (unit masses).
 
         c_i ← c_i + δt F_i,     then `free_flight` over δt,
@@ -198,7 +202,8 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype, with_viri
     "streaming", the flight average of the kinetic stress minus its value at the end
     of the step, where the observables sample it (`free_flight_stress`).  `kT` is
     the temperature scale of the runaway check: the fluid's expected temperature
-    (solvent.initial_kT), not a set one.
+    (solvent.initial_kT), not a set one.  In a decomposed run `ownership`
+    (jaxdpd.engine.ownership) says which rows the momentum and the streaming part sum.
     """
     dt_ = jnp.asarray(dt, dtype)
 
@@ -211,14 +216,19 @@ def collide_and_stream(box, dt: float, interactions, kT: float, dtype, with_viri
         moved, velocities = free_flight(bound, new_bound, state.positions, collided, dt_)
         image = box.carry_images(state.image, state.box_state, box_state)
         positions, image = new_bound.wrap(moved, image)
-        velocities = flows.remove_momentum_drift(new_bound, velocities)
+        velocities = flows.remove_momentum_drift(new_bound, velocities, ownership=ownership)
         if with_virial and bound.velocity_gradient is not None:
-            weights = jnp.ones(collided.shape[0], dtype)
+            if ownership is None:
+                weights = jnp.ones(collided.shape[0], dtype)
+                before, after = collided, velocities
+            else:
+                weights = ownership.weights(dtype)
+                before, after = weights[:, None] * collided, weights[:, None] * velocities
             virial = {
                 **virial,
                 "streaming": free_flight_stress(bound.velocity_gradient, collided, weights, dt_)
-                + collided.T @ collided
-                - velocities.T @ velocities,
+                + before.T @ collided
+                - after.T @ velocities,
             }
         return refreshed.set(
             positions=positions,

@@ -30,6 +30,9 @@ class PairGeometry:
         half: True when each pair is listed once.
         streaming: (L r_ij)·e_ij, the flow's part of the laboratory relative velocity
             along the pair (thesis eq. 3.18), or None in a box at rest.
+        identities: (N,) int32 identity of each row where rows are not the
+            particles' identities (a domain's buffers, jaxdpd.decomposition), else
+            None; pair noise is keyed by identities (`identity_pairs`).
     """
 
     i: jnp.ndarray
@@ -42,6 +45,15 @@ class PairGeometry:
     n_particles: int
     half: bool
     streaming: jnp.ndarray | None = None
+    identities: jnp.ndarray | None = None
+
+    def identity_pairs(self):
+        """(identity of i, identity of j) of each listed pair: the particles' own
+        numbers, which key the counter-based pair noise (jaxdpd.engine.noise), so a
+        pair draws the same numbers wherever its rows sit."""
+        if self.identities is None:
+            return self.i, self.j
+        return self.identities[self.i], self.identities[self.j]
 
     def along_pair(self, per_particle):
         """(x_i − x_j)·e_ij for a per-particle vector field x of shape (N, 3)."""
@@ -69,7 +81,9 @@ class PairGeometry:
         return table.reshape(-1)[per_particle[self.i] * n_labels + per_particle[self.j]]
 
 
-def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairGeometry:
+def pair_geometry(
+    box, positions, pair_list, cutoff: float, half: bool, identities=None
+) -> PairGeometry:
     """Measure the pairs of `pair_list` in `box`.
 
     Args:
@@ -79,6 +93,8 @@ def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairG
         pair_list: PairList with i, j (padded with N).
         cutoff: r_c; pairs at r ≥ r_c get `within = False`.
         half: whether the list holds each pair once.
+        identities: (N,) particle identity of each row, or None when rows are
+            identities (see PairGeometry).
     """
     n = positions.shape[0]
     listed = pair_list.i < n
@@ -96,10 +112,12 @@ def pair_geometry(box, positions, pair_list, cutoff: float, half: bool) -> PairG
     streaming = None
     if box.velocity_gradient is not None:
         streaming = box.streaming_along_pair(separation, inverse)
-    return PairGeometry(i, j, separation, distance, inverse, within, weight, n, half, streaming)
+    return PairGeometry(
+        i, j, separation, distance, inverse, within, weight, n, half, streaming, identities
+    )
 
 
-def pair_sums(geometry: PairGeometry, magnitudes: dict, with_virial: bool):
+def pair_sums(geometry: PairGeometry, magnitudes: dict, with_virial: bool, virial_weights=None):
     """Per-particle sums and virials of central pair laws.
 
     Each law's magnitude is divided by the distance once, m_ij / r_ij: a
@@ -110,6 +128,9 @@ def pair_sums(geometry: PairGeometry, magnitudes: dict, with_virial: bool):
         geometry: from `pair_geometry`.
         magnitudes: {name: (P,) magnitudes m_ij (0 where not `within`)}.
         with_virial: also return each law's virial.
+        virial_weights: (P,) share of each pair's virial that this sum counts, or
+            None for all of it (a domain counts half of a pair it shares with
+            another, jaxdpd.decomposition).
     Returns:
         ((N, 3) vectors Σ_j Σ_laws m_ij e_ij, {name: (3, 3) virial W_ab =
         Σ_pairs (r_i − r_j)_a m_ij e_ij,b} (thesis eq. 3.46, each pair counted
@@ -129,6 +150,8 @@ def pair_sums(geometry: PairGeometry, magnitudes: dict, with_virial: bool):
     if with_virial:
         count = 1.0 if geometry.half else 0.5  # a full list sees every pair twice
         for name, scale in scales.items():
+            if virial_weights is not None:
+                scale = scale * virial_weights
             virials[name] = count * jnp.stack(
                 [
                     jnp.stack([jnp.sum(sa * scale * sb) for sb in geometry.separation])

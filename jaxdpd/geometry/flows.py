@@ -78,16 +78,22 @@ def implicit_sllod_velocity(bound_box, right_hand_side, dt):
     return right_hand_side @ jnp.linalg.inv(system).T
 
 
-def remove_momentum_drift(bound_box, velocities, masses=None):
+def remove_momentum_drift(bound_box, velocities, masses=None, ownership=None):
     """Peculiar velocities with zero total momentum: c − Σ m c / Σ m (see the module
     docstring); unchanged (nothing traced) in a box at rest.
 
     Args:
         velocities: (N, 3) peculiar velocities.
         masses: (N,) particle masses, or None for unit masses.
+        ownership: the rows a domain owns and the sum over domains
+            (jaxdpd.engine.ownership) in a decomposed run, else None.
     """
     if bound_box.velocity_gradient is None:
         return velocities
+    if ownership is not None:
+        weights = jnp.ones(velocities.shape[:1], velocities.dtype) if masses is None else masses
+        momentum = ownership.system_sum(weights[:, None] * velocities)
+        return velocities - momentum / ownership.system_sum(weights)
     if masses is None:
         return velocities - jnp.mean(velocities, axis=0)
     return velocities - (masses @ velocities) / jnp.sum(masses)

@@ -17,6 +17,9 @@ lists in `output.observables`.  It owns, as attributes and methods of one object
     sampler(context) the per-step sampler, `sample(previous, state) -> (state,
                      samples)`, traced inside the scan after the solvent's step, or
                      None (e.g. g(r), measured at chunk ends on the host)
+    decomposes       it is measured in decomposed runs (jaxdpd.decomposition), by
+                     `domain_sampler(context)`: `sample(ownership, state) ->
+                     samples` over one device's rows, summed over the devices
     accumulates      it keeps on-device accumulators in SimState.observers (at most
                      one observable of a scene does), made by
                      `initial_accumulators(context, bound_box, positions, image)`
@@ -113,6 +116,7 @@ class Observable:
     needs_virial: bool = False
     consumes: tuple[str, ...] = ()
     accumulates: bool = False
+    decomposes: bool = False
     units: dict = {}
 
     def check(self, scene) -> None:
@@ -121,6 +125,12 @@ class Observable:
     def sampler(self, context: BuildContext) -> Callable | None:
         """`sample(previous, state) -> (state, samples)`, or None."""
         return None
+
+    def domain_sampler(self, context: BuildContext) -> Callable:
+        """In a decomposed run (jaxdpd.decomposition; only when `decomposes`),
+        `sample(ownership, state) -> samples` from one device's stepped rows, summed
+        over the devices with `ownership` (jaxdpd.engine.ownership)."""
+        raise NotImplementedError(f"observable {self.name!r} is not measured in decomposed runs")
 
     def initial_accumulators(self, context: BuildContext, bound_box, positions, image):
         """Empty on-device accumulators for one replica (only when `accumulates`)."""

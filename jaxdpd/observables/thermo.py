@@ -29,6 +29,13 @@ def kinetic_tensor(velocities, masses=None):
     return (masses[:, None] * velocities).T @ velocities
 
 
+def system_kinetic_tensor(ownership, state):
+    """Σ_i v_i v_iᵀ over a decomposed system's particles (unit masses), from one
+    device's rows (jaxdpd.engine.ownership)."""
+    velocities = state.velocities
+    return ownership.system_sum(velocities[:, :, None] * velocities[:, None, :])
+
+
 def temperature(kinetic, n_particles: int, momentum_conserved: bool = True):
     """k_BT from kinetic tensor(s) of shape (..., 3, 3); `momentum_conserved` False
     when the particles' total momentum is not a constant (beads in a lattice fluid)."""
@@ -72,6 +79,7 @@ class Temperature(Observable):
 
     name = "temperature"
     consumes = ("kinetic",)
+    decomposes = True
     units = {"temperature": "k_BT"}
 
     def sampler(self, context):
@@ -81,6 +89,9 @@ class Temperature(Observable):
             return state, {"kinetic": kinetic_tensor(state.velocities, masses)}
 
         return sample
+
+    def domain_sampler(self, context):
+        return lambda ownership, state: {"kinetic": system_kinetic_tensor(ownership, state)}
 
     def reduce(self, samples, scene):
         return temperature_series(samples, scene)
@@ -93,6 +104,7 @@ class Pressure(Observable):
     name = "pressure"
     needs_virial = True
     consumes = ("kinetic", "virial")
+    decomposes = True
     units = {
         "pressure": "k_BT/r_c^3",
         "pressure_tensor": "k_BT/r_c^3",
@@ -106,6 +118,17 @@ class Pressure(Observable):
             return state, {
                 "kinetic": kinetic_tensor(state.velocities, masses),
                 "virial": state.virial,
+            }
+
+        return sample
+
+    def domain_sampler(self, context):
+        def sample(ownership, state):
+            return {
+                "kinetic": system_kinetic_tensor(ownership, state),
+                "virial": {
+                    part: ownership.across_devices(share) for part, share in state.virial.items()
+                },
             }
 
         return sample

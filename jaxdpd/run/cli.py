@@ -1,6 +1,6 @@
 """Command line.
 
-    jaxdpd run SCENE.toml [-o FILE] [--steps N] [-q] [--overwrite]
+    jaxdpd run SCENE.toml [-o FILE] [--steps N] [--devices D] [-q] [--overwrite]
     jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
     jaxdpd demo [-o FILE] [-q]
 
@@ -23,9 +23,11 @@ import sys
 import time
 from importlib import resources
 
+from jaxdpd.decomposition.host_devices import request_host_devices
 from jaxdpd.engine.errors import SimulationError
 from jaxdpd.io.checkpoint import checkpoint_path, read_checkpoint_info
 from jaxdpd.io.errors import OutputError, RunFileError
+from jaxdpd.io.reader import read_scene
 from jaxdpd.run.driver import RunInterrupted
 from jaxdpd.run.runner import prepare, prepare_resume
 from jaxdpd.scene import Scene
@@ -80,12 +82,16 @@ def _prepare(args):
             shutil.copyfile(path, args.output)
             shutil.copyfile(checkpoint_path(path), checkpoint_path(args.output))
             path = args.output
+        request_host_devices(read_scene(path).parallel.devices)
         return prepare_resume(path, args.steps, **options), path
     if args.scene is None:
         raise ValueError("give a scene file (jaxdpd run SCENE.toml) or --restart FILE")
     scene = Scene.from_toml(args.scene)
     if args.steps is not None:
         scene = scene.replace(run={"steps": args.steps})
+    if args.devices is not None:
+        scene = scene.replace(parallel={"devices": args.devices})
+    request_host_devices(scene.parallel.devices)
     path = args.output or scene.output.path
     if path and not args.overwrite:
         _refuse_to_clobber(path)
@@ -149,6 +155,13 @@ def main(argv=None) -> int:
     )
     run.add_argument("-o", "--output", help="H5MD output file (overrides output.path)")
     run.add_argument("--steps", type=int, help="override run.steps (production steps)")
+    run.add_argument(
+        "--devices",
+        type=int,
+        metavar="D",
+        help="decompose the system into D slabs, one per device (overrides "
+        "parallel.devices; on a CPU host, D CPU devices are made available)",
+    )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     run.add_argument(
         "--overwrite",

@@ -41,6 +41,8 @@ Capabilities
     uses_neighbor_list        whether it reads the particle pair list itself
     initial_forces            whether the initial state holds the forces of its
                               positions (False for a step that computes its own)
+    decomposition             how a decomposed run steps it ("forces_after_drift",
+                              "forces_before_flight"), or None where it cannot
 
 Engine hooks
     pair_terms(scene, dtype)  pair terms it adds after the [pair] law
@@ -88,6 +90,9 @@ class StepContext:
         search: the neighbour backend (None without pair terms or thermostat).
         with_virial: whether the pressure is observed.
         dtype: floating dtype.
+        ownership: in a decomposed run, the rows the stepping device owns and the
+            sum over devices (jaxdpd.engine.ownership), for the sums a step takes
+            over the system; None on one device.
     """
 
     scene: object
@@ -98,6 +103,7 @@ class StepContext:
     search: object
     with_virial: bool
     dtype: object
+    ownership: object = None
 
 
 class SolventMethod:
@@ -117,6 +123,11 @@ class SolventMethod:
     unavailable_observables: ClassVar[Mapping[str, str]] = MappingProxyType({})
     uses_neighbor_list: ClassVar[bool] = False
     initial_forces: ClassVar[bool] = True
+    # How a decomposed run (jaxdpd.decomposition) steps the method's particles, or None
+    # where it cannot: "forces_after_drift" (velocity Verlet: the halo must hold every
+    # particle that may come within reach during the step, parallel.margin) or
+    # "forces_before_flight" (the step reads the positions the halo was sent with).
+    decomposition: ClassVar[str | None] = None
 
     # -- scene section ------------------------------------------------------------
     def read(self, section: dict) -> SolventParameters:

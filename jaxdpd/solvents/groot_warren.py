@@ -62,7 +62,7 @@ def groot_warren_term(gamma: float, kT: float, dt: float, noise_law: str, dtype)
     draw = NOISE_LAWS[noise_law]
 
     def term(geometry, context):
-        theta = draw(context.key, geometry.i, geometry.j, dtype)
+        theta = draw(context.key, *geometry.identity_pairs(), dtype)
         normal_velocity = geometry.relative_velocity_along_pair(context.velocities)
         return {
             "dissipative": dissipative(geometry.weight, normal_velocity, gamma_),
@@ -96,6 +96,7 @@ class GrootWarren(component.SolventMethod):
     flows = ("shear", "planar_elongation")
     body_forces = True
     uses_neighbor_list = True
+    decomposition = "forces_after_drift"
     heating_advice = (
         "above Δt ≈ 0.06 reduce integrator.dt (keep integrator.lambda near 0.5–0.65); "
         "under shear rates near 1 and above the heating hardly depends on Δt: lower the "
@@ -160,4 +161,5 @@ def velocity_verlet(context: component.StepContext):
         scene.solvent.kT,
         context.dtype,
         context.masses,
+        ownership=context.ownership,
     )

@@ -75,7 +75,7 @@ def hoogerbrugge_koelman_term(density, cutoff, pi0, omega, delta_pi_half_width, 
     dt_ = jnp.asarray(dt, dtype)
 
     def term(geometry, context):
-        delta_pi = noise.pair_uniform(context.key, geometry.i, geometry.j, -width, width, dtype)
+        delta_pi = noise.pair_uniform(context.key, *geometry.identity_pairs(), -width, width, dtype)
         momentum = geometry.relative_velocity_along_pair(context.velocities) * mass
         w = collision_weight(geometry.weight, density, cutoff)
         return {"collision": collision_magnitude(w, momentum, delta_pi, pi0_, omega_) / dt_}
@@ -112,6 +112,7 @@ class HoogerbruggeKoelman(component.SolventMethod):
     pair_forces = False
     sets_temperature = False
     uses_neighbor_list = True
+    decomposition = "forces_before_flight"
     initial_forces = False  # collide_and_stream computes the forces at each step
 
     def read(self, section) -> HoogerbruggeKoelmanParameters:
@@ -182,4 +183,5 @@ class HoogerbruggeKoelman(component.SolventMethod):
             scene.solvent.kT,
             context.dtype,
             context.with_virial,
+            context.ownership,
         )

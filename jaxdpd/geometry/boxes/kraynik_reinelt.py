@@ -98,6 +98,8 @@ class KraynikReineltBox:
 
     name: ClassVar[str] = "kraynik_reinelt"
     flow_kind: ClassVar[str | None] = "planar_elongation"
+    # Frame axes a decomposed run may cut into slabs (jaxdpd.decomposition.layout).
+    slab_axes: ClassVar[tuple[int, ...]] = (1,)
 
     @classmethod
     def from_scene(cls, lengths, flow=None) -> "KraynikReineltBox":

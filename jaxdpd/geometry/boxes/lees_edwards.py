@@ -108,6 +108,8 @@ class LeesEdwardsBox:
 
     name: ClassVar[str] = "lees_edwards"
     flow_kind: ClassVar[str | None] = "shear"
+    # Frame axes a decomposed run may cut into slabs (jaxdpd.decomposition.layout).
+    slab_axes: ClassVar[tuple[int, ...]] = (1, 2)
 
     @classmethod
     def from_scene(cls, lengths, flow=None) -> "LeesEdwardsBox":

@@ -43,6 +43,8 @@ class PeriodicBox:
 
     name: ClassVar[str] = "periodic"
     flow_kind: ClassVar[str | None] = None  # the [flow] kind this box carries
+    # Frame axes a decomposed run may cut into slabs (jaxdpd.decomposition.layout).
+    slab_axes: ClassVar[tuple[int, ...]] = (0, 1, 2)
 
     @classmethod
     def from_scene(cls, lengths, flow=None) -> "PeriodicBox":

@@ -29,6 +29,10 @@ bit-identical to one whose buffers never changed.  The number of crowded particl
 the buffers hold grows with the cell capacity (`crowd_capacity`); more than that
 flag an overflow that asks for larger cells (`needed_cell_occupancy`).
 
+A row whose frame coordinates are not finite is absent: it is binned into no cell
+and takes part in no pair (the free rows of a domain's buffers in a decomposed run,
+jaxdpd.decomposition).
+
 Axes with fewer than three cells fall back to a single cell along that axis (every
 particle is a candidate along it, measured by the minimum image in the frame, which
 stays unique because the scene requires every cell height > 2 (r_c + skin)).
@@ -117,6 +121,14 @@ def _cell_id(cell_xyz, n_cells):
     return (cell_xyz[..., 0] * n_cells[1] + cell_xyz[..., 1]) * n_cells[2] + cell_xyz[..., 2]
 
 
+def _binned_cell_id(frame, cell_xyz, n_cells):
+    """Each particle's cell id, or the number of cells (no cell) for an absent row:
+    one whose frame coordinates are not finite (the padding of a domain's buffers,
+    jaxdpd.decomposition)."""
+    present = jnp.all(jnp.isfinite(frame), axis=1)
+    return jnp.where(present, _cell_id(cell_xyz, n_cells), math.prod(n_cells))
+
+
 def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
     """Sort particles into per-cell slots.
 
@@ -131,9 +143,12 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
     # than argsort's key–index pair sort; the result is the same stable order.
     packed = cell_ids.astype(jnp.int64) * n + jnp.arange(n, dtype=jnp.int64)
     order = (jnp.sort(packed) % n).astype(jnp.int32)
-    counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1)
+    # Absent rows (cell id n_cells_total, `_binned_cell_id`) sort last, are counted
+    # in no cell and get slot cell_capacity: in no slot of the grid.
+    counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1, mode="drop")
     starts = _running(jnp.add, counts) - counts
-    rank = jnp.arange(n, dtype=jnp.int32) - starts[cell_ids[order]]
+    rank = jnp.arange(n, dtype=jnp.int32) - starts[jnp.minimum(cell_ids[order], n_cells_total - 1)]
+    rank = jnp.where(cell_ids[order] < n_cells_total, rank, cell_capacity)
     slot = jnp.zeros(n, jnp.int32).at[order].set(rank)
     slots = jnp.arange(cell_capacity, dtype=jnp.int32)[:, None]
     gathered = order[jnp.clip(starts[None, :] + slots, 0, n - 1)]
@@ -375,13 +390,14 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
         bound_box = box.bind(box_state)
         frame = bound_box.frame_positions(positions)
         cell_xyz = _cell_coordinates(frame, cell_size, n_cells)
-        cell_ids = _cell_id(cell_xyz, n_cells)
+        cell_ids = _binned_cell_id(frame, cell_xyz, n_cells)
         members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity)
         dense = min(dense_slots, cell_capacity)
         lanes = _accepted_words(bound_box, frame, members[:dense], n_cells, offsets, list_cutoff)
         grid_words = _pack_lanes(lanes, dense)
         # Each dense-tier particle's row of words: (words, N).
-        dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), cell_ids]
+        cells = jnp.minimum(cell_ids, n_cells_total - 1)  # absent rows: masked below
+        dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), cells]
         dense_rows = jnp.where(slot < dense, dense_rows, jnp.uint64(0))
         crowded, crowd, crowded_rows = _crowded_rows(
             bound_box, frame, members, slot, cell_xyz, n_cells, around_table, list_cutoff, dense
@@ -431,8 +447,8 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
     def occupancies(positions, box_state):
         """Particles in each cell (sizes the cell buffers)."""
         frame = box.bind(box_state).frame_positions(positions)
-        ids = _cell_id(_cell_coordinates(frame, cell_size, n_cells), n_cells)
-        return jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1)
+        ids = _binned_cell_id(frame, _cell_coordinates(frame, cell_size, n_cells), n_cells)
+        return jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1, mode="drop")
 
     def allocate(
         positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None

@@ -1,0 +1,113 @@
+"""Particles between neighbouring devices: halo copies and migration, by `ppermute`.
+
+Every array here is one device's, inside `jax.shard_map` over the mesh axis
+`DOMAINS`; device k's neighbours along the cut axis are k − 1 and k + 1 (mod D).
+A particle travels as a `Rows` record (identity, position, velocity, force, image
+counters, species).  Buffers have fixed sizes (XLA needs static shapes); a free row
+has identity −1 and zeros elsewhere (finite, so that no sum over rows turns NaN).
+Each send reports how many rows it needed, so that an overflow can be reported and
+the buffers enlarged.
+"""
+
+import jax
+import jax.numpy as jnp
+
+from jaxdpd import pytree
+
+DOMAINS = "domains"  # the mesh axis of the slabs
+
+
+@pytree.dataclass
+class Rows:
+    """Particle rows of one device (R rows; free rows have ids −1).
+
+    Attributes:
+        ids: (R,) int32 particle identity (its index in the scene), −1 when free.
+        positions, velocities, forces: (R, 3), zeros in free rows.
+        image: (R, 3) int32 image counters.
+        species: (R,) int32 species index.
+    """
+
+    ids: jnp.ndarray
+    positions: jnp.ndarray
+    velocities: jnp.ndarray
+    forces: jnp.ndarray
+    image: jnp.ndarray
+    species: jnp.ndarray
+
+    @property
+    def present(self):
+        """(R,) bool, rows that hold a particle."""
+        return self.ids >= 0
+
+
+def free_rows(count: int, dtype) -> Rows:
+    """`count` free rows."""
+    vectors = jnp.zeros((count, 3), dtype)
+    return Rows(
+        ids=jnp.full(count, -1, jnp.int32),
+        positions=vectors,
+        velocities=vectors,
+        forces=vectors,
+        image=jnp.zeros((count, 3), jnp.int32),
+        species=jnp.zeros(count, jnp.int32),
+    )
+
+
+def concatenate(*parts: Rows) -> Rows:
+    """The rows of `parts`, one after the other."""
+    return jax.tree.map(lambda *leaves: jnp.concatenate(leaves), *parts)
+
+
+def take(rows: Rows, index) -> Rows:
+    """Rows at `index` (an index equal to the row count gives a free row)."""
+    padded = concatenate(rows, free_rows(1, rows.positions.dtype))
+    return jax.tree.map(lambda leaf: leaf[index], padded)
+
+
+def release(rows: Rows, leaving) -> Rows:
+    """`rows` with the rows where `leaving` is True made free."""
+    free = free_rows(rows.ids.shape[0], rows.positions.dtype)
+
+    def pick(kept, emptied):
+        mask = leaving.reshape(leaving.shape + (1,) * (kept.ndim - 1))
+        return jnp.where(mask, emptied, kept)
+
+    return jax.tree.map(pick, rows, free)
+
+
+def select(rows: Rows, mask, capacity: int):
+    """The rows where `mask` holds, packed into `capacity` rows (free rows after).
+
+    Returns:
+        (Rows of `capacity` rows, int32 number of rows selected, which may exceed
+        the capacity: the surplus is dropped and must be reported).
+    """
+    count = jnp.sum(mask, dtype=jnp.int32)
+    index = jnp.nonzero(mask, size=capacity, fill_value=mask.shape[0])[0]
+    return take(rows, index), count
+
+
+def shift(rows: Rows, towards: int, domains: int) -> Rows:
+    """Send every device's `rows` to its neighbour k + towards (towards = ±1) and
+    receive the rows of neighbour k − towards."""
+    permutation = [(k, (k + towards) % domains) for k in range(domains)]
+    return jax.tree.map(lambda leaf: jax.lax.ppermute(leaf, DOMAINS, permutation), rows)
+
+
+def admit(rows: Rows, arrivals: Rows):
+    """Place the particles of `arrivals` into free rows of `rows`.
+
+    Returns:
+        (rows, int32 number of arrivals that found no free row).
+    """
+    arriving = arrivals.present
+    free = ~rows.present
+    capacity = rows.ids.shape[0]
+    count = jnp.sum(arriving, dtype=jnp.int32)
+    packed, _ = select(arrivals, arriving, arrivals.ids.shape[0])
+    slots = jnp.nonzero(free, size=arrivals.ids.shape[0], fill_value=capacity)[0]
+    # The k-th arrival goes to the k-th free row; free arrival rows land in free
+    # rows (no change) or, past the free rows, nowhere.
+    admitted = jax.tree.map(lambda kept, new: kept.at[slots].set(new, mode="drop"), rows, packed)
+    return admitted, jnp.maximum(count - jnp.sum(free, dtype=jnp.int32), 0)

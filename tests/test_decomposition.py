@@ -1,0 +1,140 @@
+"""One system decomposed over devices (jaxdpd.decomposition) against the same scene on one.
+
+The decomposed step sums each particle's forces in another order than the
+single-device step, so the two trajectories differ by round-off, and the dynamics
+amplifies round-off: a 1-ulp change of one coordinate grows to ~4e-9 after 100
+steps and to the box size after 200 (docs/scaling_out.md, "Equal to what?").  Over
+20 steps the growth is below 10³, so differences injected at 1e-15 stay below 1e-9,
+while a missed pair across a slab face or a wrong halo changes a force by O(1) and
+positions by O(Δt²) ~ 1e-3 at once.  Momentum is conserved to round-off (thesis
+§2.1: pair forces are antisymmetric).  The runs need several CPU devices, which JAX
+fixes when it starts: each comparison runs tests/decomposition_probe.py in a fresh
+process with XLA_FLAGS=--xla_force_host_platform_device_count=D.
+"""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from jaxdpd.scene import Scene
+from jaxdpd.solvents import SOLVENTS
+
+PROBE = Path(__file__).with_name("decomposition_probe.py")
+# Round-off of a total momentum of ~10³ particles with |v| ~ 1 in float64.
+MOMENTUM_ROUND_OFF = 1e-12
+
+
+def probe(case: str, devices: int, steps: int = 20) -> dict:
+    environment = {**os.environ, "PYTHONPATH": str(PROBE.parent.parent)}
+    completed = subprocess.run(
+        [
+            sys.executable,
+            str(PROBE),
+            "--devices",
+            str(devices),
+            "--case",
+            case,
+            "--steps",
+            str(steps),
+        ],
+        capture_output=True,
+        text=True,
+        env=environment,
+        timeout=900,
+    )
+    assert completed.returncode == 0, completed.stderr[-3000:]
+    return json.loads(completed.stdout)
+
+
+def check_equal_to_single_device(result: dict) -> None:
+    assert result["flags"] == 0
+    assert result["difference"]["positions"] < 1e-9, result
+    assert result["difference"]["velocities"] < 1e-9, result
+    assert result["temperature_difference"] < 1e-9, result
+    assert result["pressure_difference"] < 1e-9, result
+    assert result["momentum"] < MOMENTUM_ROUND_OFF, result
+
+
+def test_sheared_chain_solution_on_four_devices_equals_one_device():
+    """Slabs normal to the gradient of a Lees–Edwards box, FENE chains across them."""
+    result = probe("shear", 4)
+    check_equal_to_single_device(result)
+    assert result["bonds_across_slabs"] > 0, "no chain crosses a slab face: the test is void"
+    assert min(result["particles_per_device"]) > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("devices", [4, 8])
+@pytest.mark.parametrize("case", ["fluid", "chains", "shear", "elongation", "hoogerbrugge_koelman"])
+def test_decomposed_run_equals_one_device(case, devices):
+    """Every decomposable solvent, bonds across slabs, both flowing boxes, 4 and 8 slabs."""
+    if devices == 8 and case in ("chains", "shear"):
+        pytest.skip("8 slabs of 1 r_c in an 8 r_c box are thinner than the FENE halo (2 r_c)")
+    result = probe(case, devices)
+    check_equal_to_single_device(result)
+
+
+def base_scene(**sections) -> dict:
+    return {
+        "box": {"lengths": [6.0, 8.0, 6.0]},
+        "particles": {"density": 3.0},
+        "solvent": {"method": "dpd"},
+        "pair": {"a": 25.0},
+        "integrator": {"dt": 0.04, "lambda": 0.65},
+        **sections,
+    }
+
+
+def test_slabs_thinner_than_the_halo_are_refused_naming_what_fits():
+    with pytest.raises(ValueError) as error:
+        Scene.from_dict(base_scene(parallel={"devices": 6}))
+    message = str(error.value)
+    assert "parallel.devices = 6" in message and "at most 5 devices along y" in message
+
+
+def test_two_slabs_need_two_halos():
+    """With two devices the one neighbour sits on both faces: w ≥ 2h (1.5 here)."""
+    split = {"devices": 2, "axis": "y"}
+    with pytest.raises(ValueError, match="parallel.devices = 2"):
+        Scene.from_dict(base_scene(box={"lengths": [6.0, 5.0, 6.0]}, parallel=split))
+    Scene.from_dict(base_scene(box={"lengths": [6.0, 6.0, 6.0]}, parallel=split))
+
+
+def test_a_method_that_cannot_be_decomposed_is_refused_naming_those_that_can():
+    scene = base_scene(
+        solvent={"method": "lowe_andersen", "collision_frequency": 1.0},
+        integrator={"dt": 0.04},
+        parallel={"devices": 4},
+    )
+    decomposable = [m.name for m in SOLVENTS if m.decomposition is not None]
+    with pytest.raises(ValueError, match="solvent.method = 'lowe_andersen'") as error:
+        Scene.from_dict(scene)
+    assert str(decomposable) in str(error.value)
+
+
+def test_an_observable_not_measured_in_decomposed_runs_is_refused():
+    scene = base_scene(
+        parallel={"devices": 4}, output={"observables": ["temperature", "rdf"], "rdf_max": 2.5}
+    )
+    with pytest.raises(ValueError, match=r"output.observables: \['rdf'\]"):
+        Scene.from_dict(scene)
+
+
+def test_an_axis_the_box_cannot_cut_is_refused():
+    scene = base_scene(
+        flow={"kind": "shear", "shear_rate": 0.1}, parallel={"devices": 4, "axis": "x"}
+    )
+    with pytest.raises(ValueError, match="parallel.axis = 'x'"):
+        Scene.from_dict(scene)
+
+
+def test_the_parallel_section_round_trips_and_is_absent_on_one_device():
+    one = Scene.from_dict(base_scene())
+    assert "parallel" not in one.to_dict()
+    four = Scene.from_dict(base_scene(parallel={"devices": 4, "margin": 0.4}))
+    assert Scene.from_dict(four.to_dict()) == four
+    assert four.to_dict()["parallel"] == {"devices": 4, "margin": 0.4}
