@@ -72,7 +72,7 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
     [parallel]  devices ≥ 1 (one system cut into that many slabs, one per device;
                 jaxdpd.decomposition, docs/scaling_out.md); axis = "x" | "y" | "z"
                 (default: the box's longest edge it may cut: y in flow); margin ≥ 0
-                (default 0.5 r_c: added to the reach for the halo)
+                (default 0.8 r_c: added to the reach for the halo)
     [run]       steps ≥ 0, chunk ≥ 1, equilibration ≥ 0 (steps run before sampling)
     [output]    path (H5MD file, optional); observables ⊂ {"temperature",
                 "pressure", "rdf", "conformation", "dynamics", "profile",
@@ -272,7 +272,7 @@ class Parallel:
 
     devices: int = 1
     axis: str | None = None
-    margin: float = 0.5
+    margin: float = 0.8
 
 
 @dataclass(frozen=True)
@@ -923,7 +923,7 @@ def _read_parallel(section) -> Parallel:
     return Parallel(
         devices=read_number(section, "devices", "parallel", 1, minimum=1, integer=True),
         axis=read_choice(section, "axis", "parallel", ("x", "y", "z"), None),
-        margin=read_number(section, "margin", "parallel", 0.5, minimum=0),
+        margin=read_number(section, "margin", "parallel", 0.8, minimum=0),
     )
 
 

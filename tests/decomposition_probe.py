@@ -12,8 +12,8 @@ import os
 import sys
 
 
-def scenes(case: str) -> dict:
-    """The single-device scene of a case (float64, seed 3, ρ = 3, 6 × 8 × 6)."""
+def scenes(case: str, length_y: float = 10.0) -> dict:
+    """The single-device scene of a case (float64, seed 3, ρ = 3, 6 × L_y × 6)."""
     chains = {
         "particles": {
             "density": 3.0,
@@ -30,7 +30,7 @@ def scenes(case: str) -> dict:
     scene = {
         "seed": 3,
         "precision": "float64",
-        "box": {"lengths": [6.0, 8.0, 6.0]},
+        "box": {"lengths": [6.0, length_y, 6.0]},
         "particles": {"density": 3.0},
         "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
         "pair": {"a": 25.0},
@@ -55,6 +55,7 @@ def main() -> None:
     parser.add_argument("--devices", type=int, required=True)
     parser.add_argument("--case", required=True)
     parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--length-y", type=float, default=10.0)
     args = parser.parse_args()
     os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.devices}"
     import numpy as np
@@ -63,7 +64,7 @@ def main() -> None:
     from jaxdpd.run import driver
     from jaxdpd.scene import Scene
 
-    data = scenes(args.case)
+    data = scenes(args.case, args.length_y)
     single = build(Scene.from_dict(data))
     split = build(Scene.from_dict({**data, "parallel": {"devices": args.devices}}))
     samples = {}

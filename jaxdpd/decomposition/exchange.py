@@ -111,3 +111,48 @@ def admit(rows: Rows, arrivals: Rows):
     # rows (no change) or, past the free rows, nowhere.
     admitted = jax.tree.map(lambda kept, new: kept.at[slots].set(new, mode="drop"), rows, packed)
     return admitted, jnp.maximum(count - jnp.sum(free, dtype=jnp.int32), 0)
+
+
+def with_halos(rows: Rows, along, width: float, halo: float, capacity: int, devices: int):
+    """The device's rows followed by copies of its neighbours' rows near its faces.
+
+    Args:
+        rows: the rows the device owns.
+        along: (R,) their frame coordinate along the cut axis, measured from the
+            device's view origin (`SlabLayout.view_coordinate`): owned rows lie in
+            [h, h + w).
+        width, halo: slab width w and halo width h.
+        capacity: rows per face for the copies.
+    Returns:
+        (rows + copies from below + copies from above (R + 2 capacity rows), int32
+        copies the busier face had to send: more than `capacity` were cut off).
+    """
+    down, sent_down = select(rows, rows.present & (along < 2 * halo), capacity)
+    up, sent_up = select(rows, rows.present & (along >= width), capacity)
+    local = concatenate(rows, shift(up, 1, devices), shift(down, -1, devices))
+    return local, jnp.maximum(sent_down, sent_up)
+
+
+def hand_over(rows: Rows, owner, device, devices: int, capacity: int):
+    """Send each particle whose slab is now another device's to that neighbour, and
+    take in the particles the neighbours send.
+
+    Args:
+        rows: the device's rows after a step.
+        owner: (R,) int32 device of each row's slab now (`SlabLayout.owner`).
+        device: this device's index.
+        capacity: rows per face for the migrants.
+    Returns:
+        (rows, int32 migrants over the busier face, int32 arrivals that found no
+        free row, bool: a particle moved past the neighbouring slab).
+    """
+    leaving = rows.present & (owner != device)
+    hops = (owner - device) % devices
+    upward = leaving & (hops == 1)
+    downward = leaving & (hops != 1)
+    ups, left_up = select(rows, upward, capacity)
+    downs, left_down = select(rows, downward, capacity)
+    arrivals = concatenate(shift(ups, 1, devices), shift(downs, -1, devices))
+    kept, homeless = admit(release(rows, leaving), arrivals)
+    skipped = jnp.any(downward & (hops != devices - 1))
+    return kept, jnp.maximum(left_up, left_down), homeless, skipped

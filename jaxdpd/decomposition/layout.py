@@ -15,6 +15,8 @@ deforms.
 import math
 from dataclasses import dataclass
 
+import jax.numpy as jnp
+
 AXES = "xyz"
 
 
@@ -46,6 +48,22 @@ class SlabLayout:
     def width(self) -> float:
         """Slab width w = L/D."""
         return self.box_length / self.domains
+
+    def view_origin(self, device, dtype):
+        """Frame coordinate where a device's view begins: its slab's lower face − h."""
+        return device.astype(dtype) * jnp.asarray(self.width, dtype) - jnp.asarray(self.halo, dtype)
+
+    def view_coordinate(self, along, device):
+        """Frame coordinates along the axis measured from the device's view origin,
+        wrapped into one box period (owned particles: [h, h + w))."""
+        relative = along - self.view_origin(device, along.dtype)
+        period = jnp.asarray(self.box_length, along.dtype)
+        return relative - period * jnp.floor(relative / period)
+
+    def owner(self, along):
+        """The device whose slab holds each frame coordinate along the axis."""
+        slab = jnp.floor(along / jnp.asarray(self.width, along.dtype)).astype(jnp.int32)
+        return jnp.clip(slab, 0, self.domains - 1)
 
     @property
     def local_length(self) -> float:

@@ -191,17 +191,9 @@ def build_decomposed(scene) -> DecomposedSimulation:
         pair_list = jax.tree.map(lambda leaf: leaf[0], state.pair_list)
         needs = jax.tree.map(lambda leaf: leaf[0], state.needs)
         bound = box.bind(state.box_state)
-        origin = k.astype(dtype) * jnp.asarray(width, dtype) - jnp.asarray(halo, dtype)
-        period = jnp.asarray(layout.box_length, dtype)
-        along = _frame_coordinate(bound, rows.positions, axis) - origin
-        along = along - period * jnp.floor(along / period)
-        # Copies for the neighbours: within h of the lower face (along < 2h) and of
-        # the upper face (along ≥ w); owned rows lie in [h, h + w).
-        down, sent_down = exchange.select(rows, rows.present & (along < 2 * halo), halo_capacity)
-        up, sent_up = exchange.select(rows, rows.present & (along >= width), halo_capacity)
-        local = exchange.concatenate(
-            rows, exchange.shift(up, 1, devices), exchange.shift(down, -1, devices)
-        )
+        origin = layout.view_origin(k, dtype)
+        along = layout.view_coordinate(_frame_coordinate(bound, rows.positions, axis), k)
+        local, sent = exchange.with_halos(rows, along, width, halo, halo_capacity, devices)
         owned = jnp.concatenate([rows.present, jnp.zeros(2 * halo_capacity, bool)])
         ownership = Ownership(owned, lambda x: jax.lax.psum(x, DOMAINS))
         local_state = SimState(
@@ -258,29 +250,16 @@ def build_decomposed(scene) -> DecomposedSimulation:
             too_far = jnp.max(approach) > 0.5 * scene.parallel.margin
             bits = bits | jnp.where(too_far, errors.StepError.DOMAIN_REACH, 0)
         # Hand over the particles that left the slab.
-        s = _frame_coordinate(new_bound, stepped.positions, axis)
-        target = jnp.clip(jnp.floor(s / width).astype(jnp.int32), 0, devices - 1)
-        leaving = stepped.present & (target != k)
-        hops = (target - k) % devices
-        upward = leaving & (hops == 1)
-        downward = leaving & (hops != 1)
-        farther = downward & (hops != devices - 1)
-        ups, left_up = exchange.select(stepped, upward, migration_capacity)
-        downs, left_down = exchange.select(stepped, downward, migration_capacity)
-        arrivals = exchange.concatenate(
-            exchange.shift(ups, 1, devices), exchange.shift(downs, -1, devices)
+        owner = layout.owner(_frame_coordinate(new_bound, stepped.positions, axis))
+        kept, migrants, homeless, skipped = exchange.hand_over(
+            stepped, owner, k, devices, migration_capacity
         )
-        kept, homeless = exchange.admit(exchange.release(stepped, leaving), arrivals)
         held = jnp.sum(kept.present, dtype=jnp.int32) + homeless
-        overflow = (
-            (jnp.maximum(sent_down, sent_up) > halo_capacity)
-            | (jnp.maximum(left_up, left_down) > migration_capacity)
-            | (homeless > 0)
-        )
+        overflow = (sent > halo_capacity) | (migrants > migration_capacity) | (homeless > 0)
         bits = (
             bits
             | jnp.where(overflow, errors.StepError.NEIGHBOR_OVERFLOW, 0)
-            | jnp.where(jnp.any(farther), errors.StepError.DOMAIN_REACH, 0)
+            | jnp.where(skipped, errors.StepError.DOMAIN_REACH, 0)
         )
         # Sums over the system.
         velocities = new.velocities
@@ -300,8 +279,8 @@ def build_decomposed(scene) -> DecomposedSimulation:
             samples.update(sample(ownership, new))
         new_needs = DomainNeeds(
             rows=jnp.maximum(needs.rows, held),
-            halo=jnp.maximum(needs.halo, jnp.maximum(sent_down, sent_up)),
-            migrants=jnp.maximum(needs.migrants, jnp.maximum(left_up, left_down)),
+            halo=jnp.maximum(needs.halo, sent),
+            migrants=jnp.maximum(needs.migrants, migrants),
         )
         per_device = {"rows": kept, "pair_list": new.pair_list, "needs": new_needs}
         result = state.set(
