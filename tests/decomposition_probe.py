@@ -56,10 +56,12 @@ def main() -> None:
     parser.add_argument("--case", required=True)
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--length-y", type=float, default=10.0)
+    parser.add_argument("--equilibration", type=int, default=0)
     args = parser.parse_args()
     os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.devices}"
     import numpy as np
 
+    from jaxdpd.analysis.statistics import block_average
     from jaxdpd.engine.build import build
     from jaxdpd.run import driver
     from jaxdpd.scene import Scene
@@ -75,8 +77,12 @@ def main() -> None:
 
         return on_chunk
 
-    reference = driver.run(single, single.init_fn(), args.steps, args.steps, keep("single"))
-    state = driver.run(split, split.init_fn(), args.steps, args.steps, keep("split"))
+    reference, state = single.init_fn(), split.init_fn()
+    if args.equilibration:
+        reference = driver.run(single, reference, args.equilibration, args.equilibration)
+        state = driver.run(split, state, args.equilibration, args.equilibration)
+    reference = driver.run(single, reference, args.steps, args.steps, keep("single"))
+    state = driver.run(split, state, args.steps, args.steps, keep("split"))
     particles = state.particles()
     owner = np.full(split.scene.n_particles, -1)
     for device, ids in enumerate(np.asarray(state.rows.ids)):
@@ -99,6 +105,13 @@ def main() -> None:
         "temperature_difference": float(
             np.max(np.abs(samples["split"]["temperature"] - samples["single"]["temperature"]))
         ),
+        "block_averages": {
+            run: {
+                name: [float(v) for v in block_average(np.asarray(series[name]))]
+                for name in ("temperature", "pressure")
+            }
+            for run, series in samples.items()
+        },
         "bonds_across_slabs": crossing,
         "particles_per_device": [int(n) for n in (np.asarray(state.rows.ids) >= 0).sum(axis=1)],
         "flags": int(state.flags),
