@@ -19,6 +19,7 @@ TCP); any later failure fails the test.
 """
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -182,3 +183,20 @@ def test_replicas_are_shared_out_in_contiguous_blocks():
     blocks = [distributed.share(7, p, 3) for p in range(3)]
     assert [list(b) for b in blocks] == [[0, 1, 2], [3, 4], [5, 6]]
     assert list(distributed.share(2, 1, 2)) == [1]
+
+
+def test_the_launcher_numbers_the_processes_and_stops_the_rest_after_a_failure():
+    """Process 1 fails at once, process 0 would sleep a minute: the launcher returns
+    the failure's status and terminates process 0 after the grace period."""
+    code = (
+        "import os, sys, time\n"
+        "k = int(os.environ['JAXDPD_PROCESS_ID'])\n"
+        "print(os.environ['JAXDPD_COORDINATOR'], os.environ['JAXDPD_PROCESS_COUNT'], k)\n"
+        "sys.exit(5) if k else time.sleep(60)\n"
+    )
+    children = launch.launch([sys.executable, "-c", code], 2, stdout=subprocess.PIPE, text=True)
+    assert launch.wait(children, grace=0.5) == 5
+    assert children[0].returncode == -signal.SIGTERM
+    lines = [child.stdout.read().split() for child in children]
+    assert lines[0][0] == lines[1][0] and lines[0][0].startswith("127.0.0.1:")
+    assert [line[1:] for line in lines] == [["2", "0"], ["2", "1"]]

@@ -54,7 +54,7 @@ def wait(children: list, grace: float = 60.0) -> int:
     """Wait for every child; the first nonzero exit status, or 0.  Once one has
     failed, those still running after `grace` seconds get SIGTERM."""
     status, deadline = 0, None
-    while any(child.poll() is None for child in children):
+    while [child.poll() for child in children].count(None):  # poll() every child
         if deadline is None and (codes := [c.returncode for c in children if c.returncode]):
             status, deadline = codes[0], time.monotonic() + grace
         if deadline is not None and time.monotonic() > deadline:
