@@ -90,22 +90,21 @@ def allgather(tree) -> list:
     leaves = [np.asarray(leaf) for leaf in leaves]
     if jax.process_count() == 1:
         return [jax.tree.unflatten(structure, leaves)]
+    ranks = np.cumsum([0] + [leaf.ndim for leaf in leaves])  # leaf i: dims ranks[i]:ranks[i+1]
     dims = np.array([n for leaf in leaves for n in leaf.shape], np.int32)
     shapes = np.asarray(multihost_utils.process_allgather(dims))  # (P, total rank)
     largest = shapes.max(axis=0)
-    padded, offset = [], 0
-    for leaf in leaves:
-        widths = [(0, int(n) - m) for n, m in zip(largest[offset:], leaf.shape, strict=False)]
-        padded.append(np.pad(leaf, widths))
-        offset += leaf.ndim
-    gathered = multihost_utils.process_allgather(padded)
+    padded = [
+        np.pad(leaf, [(0, n - m) for n, m in zip(largest[a:b], leaf.shape, strict=True)])
+        for leaf, a, b in zip(leaves, ranks[:-1], ranks[1:], strict=True)
+    ]
+    gathered = multihost_utils.process_allgather(padded)  # each (P, *largest shape)
     trees = []
     for process, shape in enumerate(shapes):
-        cut, offset = [], 0
-        for leaf in gathered:
-            own = shape[offset : offset + leaf.ndim - 1]
-            cut.append(np.asarray(leaf[process][tuple(slice(0, int(n)) for n in own)]))
-            offset += leaf.ndim - 1
+        cut = [
+            np.asarray(leaf[process][tuple(slice(0, n) for n in shape[a:b])])
+            for leaf, a, b in zip(gathered, ranks[:-1], ranks[1:], strict=True)
+        ]
         trees.append(jax.tree.unflatten(structure, cut))
     return trees
 
@@ -228,17 +227,7 @@ def sweep(
     if seeds is None:
         seeds = [int(state.seed) + k for k in range(count)]
     mine = share(count)
-    batch = ensemble.replicate(
-        simulation,
-        state,
-        seeds=[seeds[k] for k in mine],
-        flow_rates=None if flow_rates is None else [flow_rates[k] for k in mine],
-    )
-    first = driver.first_step(batch)
-    files = None
-    if output_dir is not None:
-        files = _ReplicaFiles(simulation, output_dir, mine, seeds, flow_rates, first)
-    sums, kept = {}, {}
+    files, sums, kept = None, {}, {}
 
     def on_chunk(result: driver.ChunkResult) -> None:
         for name, values in result.series.items():
@@ -252,8 +241,19 @@ def sweep(
         if files is not None:
             files.checkpoint(last_good, str(error))
 
+    # Whatever fails in this process is reported to the others below, so none of
+    # them waits in a gather for a process that has given up.
     failure, report = None, ""
     try:
+        batch = ensemble.replicate(
+            simulation,
+            state,
+            seeds=[seeds[k] for k in mine],
+            flow_rates=None if flow_rates is None else [flow_rates[k] for k in mine],
+        )
+        if output_dir is not None:
+            first = driver.first_step(batch)
+            files = _ReplicaFiles(simulation, output_dir, mine, seeds, flow_rates, first)
         batch = driver.run(simulation, batch, steps, chunk, on_chunk, on_error, should_stop)
         if files is not None:
             files.checkpoint(batch, "end of run")
