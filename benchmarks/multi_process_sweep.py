@@ -11,21 +11,24 @@ as one vmapped batch on its one CPU device.  Per P, process 0 reports:
 - sweep_s: the timed sweep of `steps` steps after it (run and gather), the figure
   to compare;
 - launch_s: the launcher's whole wall time (interpreter and JAX start-up, runtime
-  join, both sweeps).
+  join, both sweeps), and cpu_s the processor time its processes used (cpu_s /
+  launch_s > 1: more than one core busy on average).
 
 On a machine with fewer cores than P × the cores XLA uses per process the
-processes compete for them; the load average before each run is recorded, since
-other work on the machine changes the figures.
+processes compete for them, and other work on the machine changes the figures: the
+load average before each launch is recorded, and the P are measured in `--rounds`
+rounds, each in the reverse order of the one before.
 
 Usage:
-    python benchmarks/multi_process_sweep.py [--processes 1 2] [--particles 3000]
-        [--replicas 8] [--steps 200] [--chunk 50]
+    python benchmarks/multi_process_sweep.py [--processes 1 2] [--rounds 2]
+        [--particles 3000] [--replicas 8] [--steps 200] [--chunk 50]
 Writes benchmarks/results/multi_process_sweep.json.
 """
 
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -60,15 +63,19 @@ if jax.process_index() == 0:
 
 
 def measure(processes: int, args) -> dict:
+    """Launch one P; process 0's figures and the launch's."""
     benchmarks = str(Path(__file__).resolve().parent)
     code = PROCESS.format(benchmarks=benchmarks, **vars(args) | {"processes": processes})
     load = os.getloadavg()[0]
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
     begin = time.perf_counter()
     children = launch.launch(
         [sys.executable, "-c", code], processes, stdout=subprocess.PIPE, text=True
     )
     outputs = [child.communicate()[0] for child in children]
     launch_seconds = time.perf_counter() - begin
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_seconds = after.ru_utime + after.ru_stime - used.ru_utime - used.ru_stime
     if any(child.returncode for child in children):
         raise SystemExit(f"P = {processes}: a process failed")
     (line,) = [row for row in outputs[0].splitlines() if row.startswith("RESULT")]
@@ -81,6 +88,7 @@ def measure(processes: int, args) -> dict:
         "steps": args.steps,
         **figures,
         "launch_s": launch_seconds,
+        "cpu_s": cpu_seconds,
         "particle_steps_per_s": particle_steps / figures["sweep_s"],
         "load_before": load,
     }
@@ -89,12 +97,16 @@ def measure(processes: int, args) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--processes", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--particles", type=int, default=3000)
     parser.add_argument("--replicas", type=int, default=8)
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--chunk", type=int, default=50)
     args = parser.parse_args()
-    rows = [measure(p, args) for p in args.processes]
+    rows = []
+    for round_ in range(args.rounds):
+        order = args.processes if round_ % 2 == 0 else args.processes[::-1]
+        rows.extend({"round": round_, **measure(p, args)} for p in order)
     print_table(list(rows[0]), rows)
     path = write_json("multi_process_sweep", {"rows": rows})
     print(f"wrote {path}")

@@ -5,14 +5,16 @@ process gathers the whole sweep; it equals the single-process batch of the same 
 replicas (`driver.run` on `ensemble.replicate`), bit for bit.
 
 Why bit for bit, not to round-off: a replica's arithmetic is the same in both runs.
-vmap gives every operation a leading replica axis and no operation reduces over it,
-so the batch size (2 per process, 4 in one process) only changes the outermost loop
-of each XLA kernel, not the order of any sum within a replica; XLA on CPU does not
-reassociate floating-point sums (fast-math is off); the noise is counter-based,
-(seed, step, i, j); the start state and each replica's buffers are made by the same
-`replicate` from the same state.  (vmapped against unbatched runs do differ in
-round-off, tests/test_ensemble.py: a batch and a single state are different kernels.)
-On GPUs the same argument does not hold for every reduction; expect round-off there.
+vmap gives every operation a leading replica axis and no operation reduces over it;
+that axis is the outermost dimension of every array, so a replica's elements lie in
+the same layout in a batch of two (a process's block) as in a batch of four, and
+XLA's CPU kernels form each replica's sums over the same elements in the same order.
+The noise is counter-based, (seed, step, i, j), and every replica starts from the
+same state, so its neighbour buffers get the same capacity in either batch.  (A
+batch against an unbatched run is another kernel and differs in round-off,
+tests/test_ensemble.py.)  Were an XLA version to tile a kernel by the batch size,
+this test would say so, and test_ensemble's round-off bound would be the one to
+use; on GPUs, where reductions may be tiled by the total size, expect round-off.
 
 The runtime is skipped only when the processes cannot join it at all (no loopback
 TCP); any later failure fails the test.
