@@ -1,1 +1,2 @@
-"""Running a scene: the chunked driver, the file-writing runner, the CLI, ensembles."""
+"""Running a scene: the chunked driver, the file-writing runner, the CLI, ensembles
+(on one host and over processes)."""
