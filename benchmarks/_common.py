@@ -37,6 +37,17 @@ def timed(function, *args):
     return result, time.perf_counter() - start
 
 
+def best_of(function, repeats: int) -> float:
+    """The shortest of `repeats` wall times (s) of `function()`: the run least
+    disturbed by the rest of the machine."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
 def print_table(columns, rows) -> None:
     """Print rows (dicts) under the given column names."""
     widths = [max(len(c), *(len(_fmt(r.get(c))) for r in rows)) for c in columns]

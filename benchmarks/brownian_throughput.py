@@ -30,6 +30,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _common import best_of
 
 import jaxdpd
 from jaxdpd.brownian import (
@@ -115,15 +116,6 @@ def jax_runner(n, n_steps, noise):
         return final.connector
 
     return run
-
-
-def best_of(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def throughput(sizes, repeats, budget):

@@ -6,12 +6,14 @@ slabs along z.  Strong scaling keeps N fixed (a 20 × 20 × 20 box, N = 24000) a
 cuts it into D slabs; weak scaling keeps each device's slab fixed (10 × 10 × 5,
 1500 particles) and stacks D of them.  Each (D, N) runs in its own process with D
 devices (on CPU `--xla_force_host_platform_device_count=D`; D = 1 is the ordinary
-single-device step).  The step time is the best of several jitted chunks after a
-warm-up; the exchange time is that of the same chunk length of an exchange-only
-program: halo copies out and in (`exchange.with_halos`) and a migration
-(`exchange.hand_over`) on the state's rows, with the same buffer sizes.  Its ratio
-to the step time is the share of a step the exchange takes; the halo share is the
-copies a device steps beside its own particles.
+single-device step).  After 200 steps from the random start the buffers are
+fitted to the liquid (`simulation.reallocate(state, None)`).  The step time is the
+best of several jitted chunks after a warm-up; the exchange time is that of the
+same chunk length of an exchange-only program: halo copies out and in
+(`exchange.with_halos`) and a migration (`exchange.hand_over`) on the state's rows,
+with the same buffer sizes.  Its ratio to the step time is the share of a step the
+exchange takes; the halo share is the copies a device steps beside its own
+particles.
 
 On a CPU host the forced devices share the machine's cores, so adding devices adds
 no arithmetic throughput: the strong-scaling speed-up measures the overheads, not a
@@ -27,10 +29,9 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
-from _common import print_table, write_json
+from _common import best_of, print_table, write_json
 
 STRONG_BOX = (20.0, 20.0, 20.0)
 WEAK_SLAB = (10.0, 10.0, 5.0)
@@ -52,15 +53,6 @@ def scene_dict(lengths, devices: int) -> dict:
     return data
 
 
-def best_of(function, rounds: int) -> float:
-    times = []
-    for _ in range(rounds):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
-
 def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
     """Time one configuration (runs in a process with `devices` devices)."""
     import jax
@@ -75,7 +67,7 @@ def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
 
     simulation = build(Scene.from_dict(scene_dict(lengths, devices)))
     state = driver.run(simulation, simulation.init_fn(), 200, 100)  # leave the random start
-    state = simulation.reallocate(state, None) if devices == 1 else state
+    state = simulation.reallocate(state, None)  # buffers fitted to the liquid
     chunk = driver.run_chunk(simulation, state, steps)[0]
     jax.block_until_ready(chunk)
     step_time = best_of(
@@ -126,7 +118,7 @@ def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
     row.update(
         exchange_ms=1e3 * exchange_time / steps,
         exchange_share=exchange_time / step_time,
-        halo_share=float(np.max(np.asarray(state.needs.halo))) * 2 / owned,
+        halo_share=float(np.max(np.asarray(chunk.needs.halo))) * 2 / owned,
     )
     return row
 

@@ -371,12 +371,12 @@ def build_decomposed(scene) -> DecomposedSimulation:
             specs,
         )
 
-    def pair_room(stepped: int, minimum: int = 0) -> int:
+    def pair_room(stepped: int) -> int:
         """Pair buffer for `stepped` rows: the ideal-gas count of a device's view."""
         density = scene.n_particles / box.volume
         present = scene.n_particles * (width + 2 * halo) / layout.box_length
         ideal = 0.5 * present * density * 4 / 3 * math.pi * reach**3
-        return max(16, math.ceil(max(ideal, minimum) * multiplier))
+        return max(16, math.ceil(ideal * multiplier))
 
     def init_fn():
         state = serial.init_fn()
@@ -432,26 +432,30 @@ def build_decomposed(scene) -> DecomposedSimulation:
         )
 
     def reallocate(state, needs):
-        """Buffers sized for `needs` (`buffer_needs` of an overflowed chunk) with the
-        capacity multiplier's head room, never smaller than before."""
-        pairs, cells, capacity, halo_capacity, migration_capacity = buffer_shapes(state)
-        if needs is not None:
-            grown = [math.ceil(need * multiplier) for need in needs]
-            pairs = max(pairs, grown[0])
-            cells = max(cells, needs[1] + max(3, math.ceil(0.2 * needs[1])))
-            capacity = max(capacity, grown[2])
-            halo_capacity = max(halo_capacity, grown[3])
-            migration_capacity = max(migration_capacity, grown[4])
-        stepped = capacity + 2 * halo_capacity
+        """Buffers re-sized with the capacity multiplier's head room: for `needs`
+        (`buffer_needs` of an overflowed chunk), never smaller than before; or, with
+        None, fitted to what the state's own steps needed (`DecomposedState.needs`
+        and the last pair list), smaller or larger: a state that has left its random
+        start needs far fewer cell slots than the start did."""
+        shapes = buffer_shapes(state)
+        fitting = needs is None
+        needs = buffer_needs(state) if fitting else needs
+        if fitting and needs[2] == 0:  # not stepped since its buffers were sized
+            return state
+        sizes = [math.ceil(need * multiplier) for need in needs]
+        sizes[1] = needs[1] + max(3, math.ceil(0.2 * needs[1]))
+        if not fitting:
+            sizes = [max(size, shape) for size, shape in zip(sizes, shapes, strict=True)]
+        pairs, cells, capacity, halo_capacity, migration_capacity = sizes
         template = state.set(flags=jnp.asarray(0, jnp.int32))
         return deal(
             state.particles(),
             jax.tree.map(np.asarray, state.box_state),
             template,
             capacity,
-            halo_capacity,
-            migration_capacity,
-            max(pairs, pair_room(stepped)),
+            max(halo_capacity, 8),
+            max(migration_capacity, 8),
+            max(pairs, 16),
             cells,
         )
 
