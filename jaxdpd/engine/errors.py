@@ -52,9 +52,10 @@ class StepError(enum.IntFlag):
     DOMAIN_REACH = (
         64,
         "in a decomposed run, a particle moved farther in one step than "
-        "parallel.margin allows, or a bond grew longer than the halo (the interaction "
-        "reach plus parallel.margin): raise parallel.margin (slabs must stay at least "
-        "one halo thick) or reduce integrator.dt",
+        "parallel.margin allows, or a bond grew longer than the halo (the longest "
+        "reach, pair cut-off or FENE bond, plus parallel.margin): raise parallel.margin "
+        "(slabs must stay at least one halo thick), use FENE springs, or reduce "
+        "integrator.dt",
     )
     NEIGHBOR_OVERFLOW = 1, "neighbour list overflow (buffers too small)"
     NON_FINITE = (
