@@ -42,7 +42,15 @@ def scenes(case: str, length_y: float = 10.0) -> dict:
         "chains": chains,
         "shear": {**chains, "flow": {"kind": "shear", "shear_rate": 0.5}},
         "elongation": {"flow": {"kind": "planar_elongation", "elongation_rate": 0.2}},
+        "oscillatory": {
+            **chains,
+            "flow": {"kind": "shear", "shear_rate": 0.5, "oscillation_frequency": 0.5},
+        },
         "hoogerbrugge_koelman": {"solvent": {"method": "hoogerbrugge_koelman"}},
+        "hoogerbrugge_koelman_shear": {
+            "solvent": {"method": "hoogerbrugge_koelman"},
+            "flow": {"kind": "shear", "shear_rate": 0.05},
+        },
     }
     scene.update(cases[case])
     if scene["solvent"]["method"] == "hoogerbrugge_koelman":

@@ -67,12 +67,23 @@ def test_sheared_chain_solution_on_four_devices_equals_one_device():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("devices", [4, 8])
-@pytest.mark.parametrize("case", ["fluid", "chains", "shear", "elongation", "hoogerbrugge_koelman"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "fluid",
+        "chains",
+        "shear",
+        "oscillatory",
+        "elongation",
+        "hoogerbrugge_koelman",
+        "hoogerbrugge_koelman_shear",
+    ],
+)
 def test_decomposed_run_equals_one_device(case, devices):
     """Every decomposable solvent, bonds across slabs, both flowing boxes, 4 and 8 slabs."""
     result = probe(case, devices)
     check_equal_to_single_device(result)
-    if case in ("chains", "shear"):
+    if case in ("chains", "shear", "oscillatory"):
         assert result["bonds_across_slabs"] > 0
 
 

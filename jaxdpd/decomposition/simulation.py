@@ -302,7 +302,9 @@ def build_decomposed(scene) -> DecomposedSimulation:
             # Its tables are constants of every step that uses it, not of the first
             # trace that asked for it.
             with jax.ensure_compile_time_eval():
-                searches[rows_stepped] = cell_list_search(view, rows_stepped, reach, 0.0)
+                searches[rows_stepped] = cell_list_search(
+                    view, rows_stepped, reach, 0.0, absent_rows=True
+                )
         return searches[rows_stepped]
 
     def step_fn(state):

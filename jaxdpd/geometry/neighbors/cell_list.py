@@ -29,9 +29,9 @@ bit-identical to one whose buffers never changed.  The number of crowded particl
 the buffers hold grows with the cell capacity (`crowd_capacity`); more than that
 flag an overflow that asks for larger cells (`needed_cell_occupancy`).
 
-A row whose frame coordinates are not finite is absent: it is binned into no cell
-and takes part in no pair (the free rows of a domain's buffers in a decomposed run,
-jaxdpd.decomposition).
+With `absent_rows`, a row whose frame coordinates are not finite is absent: it is
+binned into no cell and takes part in no pair (the free rows of a device's buffers in
+a decomposed run, jaxdpd.decomposition); without it none of this is traced.
 
 Axes with fewer than three cells fall back to a single cell along that axis (every
 particle is a candidate along it, measured by the minimum image in the frame, which
@@ -129,8 +129,9 @@ def _binned_cell_id(frame, cell_xyz, n_cells):
     return jnp.where(present, _cell_id(cell_xyz, n_cells), math.prod(n_cells))
 
 
-def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
-    """Sort particles into per-cell slots.
+def _bin(cell_ids, n_cells_total: int, cell_capacity: int, absent_rows: bool = False):
+    """Sort particles into per-cell slots (`absent_rows`: some cell ids are
+    n_cells_total, rows binned into no cell; `_binned_cell_id`).
 
     Returns:
         members: (cell_capacity, n_cells_total) int32, the particle in each slot
@@ -143,12 +144,18 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int):
     # than argsort's key–index pair sort; the result is the same stable order.
     packed = cell_ids.astype(jnp.int64) * n + jnp.arange(n, dtype=jnp.int64)
     order = (jnp.sort(packed) % n).astype(jnp.int32)
-    # Absent rows (cell id n_cells_total, `_binned_cell_id`) sort last, are counted
-    # in no cell and get slot cell_capacity: in no slot of the grid.
-    counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1, mode="drop")
-    starts = _running(jnp.add, counts) - counts
-    rank = jnp.arange(n, dtype=jnp.int32) - starts[jnp.minimum(cell_ids[order], n_cells_total - 1)]
-    rank = jnp.where(cell_ids[order] < n_cells_total, rank, cell_capacity)
+    if absent_rows:
+        # Absent rows sort last, are counted in no cell and get slot cell_capacity:
+        # in no slot of the grid.
+        counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1, mode="drop")
+        starts = _running(jnp.add, counts) - counts
+        ordered = cell_ids[order]
+        rank = jnp.arange(n, dtype=jnp.int32) - starts[jnp.minimum(ordered, n_cells_total - 1)]
+        rank = jnp.where(ordered < n_cells_total, rank, cell_capacity)
+    else:
+        counts = jnp.zeros(n_cells_total, jnp.int32).at[cell_ids].add(1)
+        starts = _running(jnp.add, counts) - counts
+        rank = jnp.arange(n, dtype=jnp.int32) - starts[cell_ids[order]]
     slot = jnp.zeros(n, jnp.int32).at[order].set(rank)
     slots = jnp.arange(cell_capacity, dtype=jnp.int32)[:, None]
     gathered = order[jnp.clip(starts[None, :] + slots, 0, n - 1)]
@@ -363,7 +370,7 @@ def _compact(entries, pair_capacity: int):
     return owner, bit, slots < total, total
 
 
-def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
+def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_rows: bool = False):
     """jaxdpd's cell-list half neighbour list (see the module docstring).
 
     Args:
@@ -372,6 +379,8 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
         n_particles: N.
         cutoff: interaction cut-off r_c.
         skin: Verlet skin ≥ 0.
+        absent_rows: rows with non-finite coordinates are absent (module docstring);
+            False traces none of that test.
     Returns:
         NeighborSearch with half = True.
     """
@@ -390,13 +399,16 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
         bound_box = box.bind(box_state)
         frame = bound_box.frame_positions(positions)
         cell_xyz = _cell_coordinates(frame, cell_size, n_cells)
-        cell_ids = _binned_cell_id(frame, cell_xyz, n_cells)
-        members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity)
+        if absent_rows:
+            cell_ids = _binned_cell_id(frame, cell_xyz, n_cells)
+        else:
+            cell_ids = _cell_id(cell_xyz, n_cells)
+        members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity, absent_rows)
         dense = min(dense_slots, cell_capacity)
         lanes = _accepted_words(bound_box, frame, members[:dense], n_cells, offsets, list_cutoff)
         grid_words = _pack_lanes(lanes, dense)
         # Each dense-tier particle's row of words: (words, N).
-        cells = jnp.minimum(cell_ids, n_cells_total - 1)  # absent rows: masked below
+        cells = jnp.minimum(cell_ids, n_cells_total - 1) if absent_rows else cell_ids
         dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), cells]
         dense_rows = jnp.where(slot < dense, dense_rows, jnp.uint64(0))
         crowded, crowd, crowded_rows = _crowded_rows(
@@ -447,8 +459,11 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float):
     def occupancies(positions, box_state):
         """Particles in each cell (sizes the cell buffers)."""
         frame = box.bind(box_state).frame_positions(positions)
-        ids = _binned_cell_id(frame, _cell_coordinates(frame, cell_size, n_cells), n_cells)
-        return jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1, mode="drop")
+        cell_xyz = _cell_coordinates(frame, cell_size, n_cells)
+        if absent_rows:
+            ids = _binned_cell_id(frame, cell_xyz, n_cells)
+            return jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1, mode="drop")
+        return jnp.zeros(n_cells_total, jnp.int32).at[_cell_id(cell_xyz, n_cells)].add(1)
 
     def allocate(
         positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None
