@@ -13,28 +13,34 @@ its first bead), so the shares sum to the system's virial over the devices.
 import jax.numpy as jnp
 
 from jaxdpd.decomposition.slab_view import SlabState
-from jaxdpd.engine import errors, noise
-from jaxdpd.engine.build import PairContext
+from jaxdpd.engine import errors
+from jaxdpd.engine.build import pair_term_parts
 from jaxdpd.forces.pair_sums import pair_geometry, pair_sums
 
 
-def _row_of(ids, wanted):
-    """Row holding each identity of `wanted` (any row where absent) and whether
-    it is present."""
+def identity_lookup(ids):
+    """`row_of(wanted) -> (row, present)`: the row holding each identity of `wanted`
+    (any row where absent) and whether it is there; the rows are sorted by identity
+    once."""
     absent = jnp.iinfo(jnp.int32).max
     order = jnp.argsort(jnp.where(ids >= 0, ids, absent))
     ordered = ids[order]
-    place = jnp.minimum(jnp.searchsorted(ordered, wanted), ids.shape[0] - 1)
-    return order[place], ordered[place] == wanted
+
+    def row_of(wanted):
+        place = jnp.minimum(jnp.searchsorted(ordered, wanted), ids.shape[0] - 1)
+        return order[place], ordered[place] == wanted
+
+    return row_of
 
 
-def chain_bond_forces_by_identity(bound_box, positions, ids, owned, block, law, halo):
+def chain_bond_forces_by_identity(bound_box, positions, ids, row_of, owned, block, law, halo):
     """Spring forces on every row of one chain block's beads, partners found by identity.
 
     Args:
         bound_box: the whole box at this instant (minimum-image spring vectors).
         positions: (R, 3) wrapped positions of the device's rows.
         ids: (R,) identities (−1: free row).
+        row_of: `identity_lookup(ids)`.
         owned: (R,) bool, rows the device owns.
         block: the ChainBlock (beads first … stop − 1, chain after chain).
         law: its bond law, parameters bound.
@@ -49,7 +55,7 @@ def chain_bond_forces_by_identity(bound_box, positions, ids, owned, block, law, 
     springs, pulls, lost, stretched = [], [], False, False
     for step, has in ((1, bead < block.beads - 1), (-1, bead > 0)):
         has = in_block & has
-        partner, found = _row_of(ids, ids + step)
+        partner, found = row_of(ids + step)
         live = has & found
         # Spring vector from the lower bead to the upper one, Q = r_{k+1} − r_k.
         separation = (positions[partner] - positions) * step
@@ -82,6 +88,7 @@ def domain_force_kernel(box, search, terms, blocks, cutoff, with_virial, body_fo
 
     def kernel(ids, owned, origin):
         present = ids >= 0
+        row_of = identity_lookup(ids) if blocks else None
 
         def interactions(positions, velocities, state, refresh_pairs: bool = True):
             bound = box.bind(state.box_state)
@@ -93,12 +100,7 @@ def domain_force_kernel(box, search, terms, blocks, cutoff, with_virial, body_fo
                 pair_list = search.update(listed, pair_list, SlabState(state.box_state, origin))
             if terms:
                 geometry = pair_geometry(bound, positions, pair_list, cutoff, True, ids)
-                context = PairContext(
-                    velocities, state.species, noise.step_key(state.seed, state.step)
-                )
-                parts = {}
-                for term in terms:
-                    parts.update(term(geometry, context))
+                parts = pair_term_parts(terms, geometry, velocities, state)
                 shares = 0.5 * (owned[geometry.i].astype(positions.dtype) + owned[geometry.j])
                 vectors, virial = pair_sums(geometry, parts, with_virial, shares)
             state = state.set(pair_list=pair_list)
@@ -110,7 +112,7 @@ def domain_force_kernel(box, search, terms, blocks, cutoff, with_virial, body_fo
             for block in blocks:
                 law = block.law.with_parameters(state.parameters["bond"][block.species])
                 forces, bond_virial, lost, stretched = chain_bond_forces_by_identity(
-                    bound, positions, ids, owned, block, law, halo
+                    bound, positions, ids, row_of, owned, block, law, halo
                 )
                 vectors = vectors + forces
                 if with_virial:

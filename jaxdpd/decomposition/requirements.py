@@ -44,11 +44,10 @@ def check_scene(scene) -> None:
             f"output.observables: {refused} are not measured in a decomposed run "
             f"(parallel.devices = {devices}); available there: {measured}"
         )
-    for section in ("spring_repulsion",):
-        if getattr(scene, section) is not None:
-            raise ValueError(
-                f"{section}: not available in a decomposed run (parallel.devices = {devices})"
-            )
+    if scene.spring_repulsion is not None:
+        raise ValueError(
+            f"spring_repulsion: not available in a decomposed run (parallel.devices = {devices})"
+        )
     if scene.body_force is not None and scene.body_force.kind != "cosine":
         raise ValueError(
             f"body_force.kind = {scene.body_force.kind!r}: a decomposed run applies only "

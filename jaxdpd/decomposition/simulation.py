@@ -50,6 +50,9 @@ from jaxdpd.observables import scene_observables
 from jaxdpd.observables.component import BuildContext
 from jaxdpd.solvents import StepContext
 
+# The per-particle fields a device's rows carry besides the identities.
+PARTICLE_FIELDS = ("positions", "velocities", "forces", "image", "species")
+
 
 @pytree.dataclass
 class DomainNeeds:
@@ -95,24 +98,22 @@ class DecomposedState:
     halo_capacity: int = pytree.static_field(default=0)
     migration_capacity: int = pytree.static_field(default=0)
 
-    def particles(self) -> dict:
-        """The particles' positions, velocities, forces, image counters and species
-        as NumPy arrays in scene order (host side)."""
-        rows = jax.tree.map(np.asarray, self.rows)
-        ids = rows.ids.reshape(-1)
+    def particles(self, names=PARTICLE_FIELDS) -> dict:
+        """The particles' fields `names` (default all of PARTICLE_FIELDS) as NumPy
+        arrays in scene order (host side)."""
+        ids = np.asarray(self.rows.ids).reshape(-1)
         present = ids >= 0
         order = np.argsort(ids[present])
-        return {
-            name: getattr(rows, name).reshape((ids.size,) + getattr(rows, name).shape[2:])[present][
-                order
-            ]
-            for name in ("positions", "velocities", "forces", "image", "species")
-        }
+        fields = {}
+        for name in names:
+            values = np.asarray(getattr(self.rows, name))
+            fields[name] = values.reshape((ids.size,) + values.shape[2:])[present][order]
+        return fields
 
     # What output writers read of a state (jaxdpd.io.h5md), in scene order.
-    positions = property(lambda self: self.particles()["positions"])
-    velocities = property(lambda self: self.particles()["velocities"])
-    image = property(lambda self: self.particles()["image"])
+    positions = property(lambda self: self.particles(("positions",))["positions"])
+    velocities = property(lambda self: self.particles(("velocities",))["velocities"])
+    image = property(lambda self: self.particles(("image",))["image"])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -329,18 +330,15 @@ def build_decomposed(scene) -> DecomposedSimulation:
         counts = np.bincount(owner, minlength=devices)
         if counts.max() > capacity:
             capacity = math.ceil(counts.max() * multiplier)
+        free = exchange.free_rows(capacity, dtype)
         rows = {
-            "ids": np.full((devices, capacity), -1, np.int32),
-            "positions": np.zeros((devices, capacity, 3), dtype),
-            "velocities": np.zeros((devices, capacity, 3), dtype),
-            "forces": np.zeros((devices, capacity, 3), dtype),
-            "image": np.zeros((devices, capacity, 3), np.int32),
-            "species": np.zeros((devices, capacity), np.int32),
+            field.name: np.stack([np.asarray(getattr(free, field.name))] * devices)
+            for field in dataclasses.fields(free)
         }
         for device in range(devices):
             members = np.flatnonzero(owner == device)
             rows["ids"][device, : members.size] = members
-            for name in ("positions", "velocities", "forces", "image", "species"):
+            for name in PARTICLE_FIELDS:
                 rows[name][device, : members.size] = arrays[name][members]
         stepped = capacity + 2 * halo_capacity
         origins = np.arange(devices) * width - halo
@@ -373,8 +371,8 @@ def build_decomposed(scene) -> DecomposedSimulation:
             specs,
         )
 
-    def pair_room(stepped: int) -> int:
-        """Pair buffer for `stepped` rows: the ideal-gas count of a device's view."""
+    def pair_room() -> int:
+        """Pair buffer of a device: the ideal-gas pair count of its slab and halos."""
         density = scene.n_particles / box.volume
         present = scene.n_particles * (width + 2 * halo) / layout.box_length
         ideal = 0.5 * present * density * 4 / 3 * math.pi * reach**3
@@ -394,12 +392,8 @@ def build_decomposed(scene) -> DecomposedSimulation:
             box_state=state.box_state,
             parameters=state.parameters,
         )
-        arrays = {
-            name: np.asarray(getattr(state, name))
-            for name in ("positions", "velocities", "forces", "image", "species")
-        }
+        arrays = {name: np.asarray(getattr(state, name)) for name in PARTICLE_FIELDS}
         cells = state.pair_list.cell_capacity if serial.neighbor_search is not None else 1
-        stepped = layout.capacity + 2 * layout.halo_capacity
         return deal(
             arrays,
             state.box_state,
@@ -407,7 +401,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
             layout.capacity,
             layout.halo_capacity,
             layout.migration_capacity,
-            pair_room(stepped),
+            pair_room(),
             cells,
         )
 

@@ -120,6 +120,16 @@ def pair_terms(scene: Scene, dtype) -> list:
     return terms
 
 
+def pair_term_parts(terms, geometry, velocities, state) -> dict:
+    """{part: (P,) magnitudes} of the pair terms over the pairs of `geometry`, with
+    the velocities given, the state's species and the step's noise key."""
+    context = PairContext(velocities, state.species, noise.step_key(state.seed, state.step))
+    parts = {}
+    for term in terms:
+        parts.update(term(geometry, context))
+    return parts
+
+
 def body_force_law(scene: Scene, dtype):
     """`force(positions, amplitude)` of the scene's [body_force], or None."""
     section = scene.body_force
@@ -189,11 +199,7 @@ def force_kernel(
         if not terms:  # the list serves the thermostat alone
             return jnp.zeros_like(positions), {}, pair_list
         geometry = pair_geometry(bound_box, positions, pair_list, cutoff, search.half)
-        key = noise.step_key(state.seed, state.step)
-        context = PairContext(velocities, state.species, key)
-        parts = {}
-        for term in terms:
-            parts.update(term(geometry, context))
+        parts = pair_term_parts(terms, geometry, velocities, state)
         vectors, virial = pair_sums(geometry, parts, with_virial)
         return vectors, virial, pair_list
 

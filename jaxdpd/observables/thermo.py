@@ -31,9 +31,9 @@ def kinetic_tensor(velocities, masses=None):
 
 def system_kinetic_tensor(ownership, state):
     """Σ_i v_i v_iᵀ over a decomposed system's particles (unit masses), from one
-    device's rows (jaxdpd.engine.ownership)."""
-    velocities = state.velocities
-    return ownership.system_sum(velocities[:, :, None] * velocities[:, None, :])
+    device's rows (jaxdpd.engine.ownership): its owned rows weighted 1, the others 0."""
+    weights = ownership.weights(state.velocities.dtype)
+    return ownership.across_devices(kinetic_tensor(state.velocities, weights))
 
 
 def temperature(kinetic, n_particles: int, momentum_conserved: bool = True):
