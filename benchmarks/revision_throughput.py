@@ -9,14 +9,22 @@ both alike; each benchmark run is a fresh process using its own tree's code
 ratio head/base, and each round's ratio: their spread is the noise a difference must
 exceed to mean anything.
 
+With `--compiled` it times nothing: it compiles the DPD chunk of each tree (float32,
+N = 24000 and 3000, buffers fitted after equilibration) and compares the optimised
+XLA programs instruction by instruction, names and source locations removed, and the
+state's buffer shapes.  Identical programs on identical buffers run at the same speed,
+whatever a noisy machine's timings say.
+
 Usage:
-    python benchmarks/revision_throughput.py --base c87a54c [--rounds 3]
-Writes benchmarks/results/revision_throughput.json.
+    python benchmarks/revision_throughput.py --base c87a54c [--rounds 3] [--compiled]
+Writes benchmarks/results/revision_throughput.json (timings only).
 """
 
 import argparse
+import difflib
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -81,11 +89,74 @@ def measure(tree: Path) -> dict:
     return figures
 
 
+COMPILED_SIZES = (3000, 24000)
+
+
+def compiled_dpd_program(n: int) -> str:
+    """The optimised program of this interpreter's tree's DPD chunk at N = n, with
+    instruction names, metadata and source tables removed, then its state's shapes."""
+    import jax
+
+    sys.path.insert(0, os.getcwd())  # this tree's benchmarks, ahead of the script's own
+    from dpd_throughput import JaxdpdFluid
+
+    fluid = JaxdpdFluid(n, "float32", 100, 200)
+    lines = []
+    for line in fluid.compiled.as_text().splitlines():
+        line = re.sub(r",? ?(metadata=\{[^}]*\}|stack_frame_id=\d+)", "", line)
+        # Instructions and computation headers; not the source-location tables.
+        if re.match(r"\s*\d+ ", line) is None and (" = " in line or line.endswith("{")):
+            lines.append(re.sub(r"[._]\d+\b", "", line))
+    shapes = [
+        f"{jax.tree_util.keystr(path)} {leaf.shape} {leaf.dtype}"
+        for path, leaf in jax.tree_util.tree_leaves_with_path(fluid.state)
+    ]
+    return "\n".join(lines + shapes)
+
+
+def compare_compiled(base_tree: Path) -> list[dict]:
+    """Per size, whether the base and head DPD programs are identical."""
+    rows = []
+    for n in COMPILED_SIZES:
+        programs = {}
+        for label, tree in (("base", base_tree), ("head", REPOSITORY)):
+            programs[label] = subprocess.run(
+                [sys.executable, str(Path(__file__).resolve()), "--print-compiled", str(n)],
+                cwd=tree / "benchmarks",
+                env={**os.environ, "PYTHONPATH": str(tree)},
+                check=True,
+                capture_output=True,
+                text=True,
+            ).stdout.splitlines()
+        differing = sum(
+            line[0] in "+-" and line[:3] not in ("+++", "---")
+            for line in difflib.unified_diff(programs["base"], programs["head"], n=0)
+        )
+        rows.append(
+            {
+                "figure": f"DPD N={n} compiled chunk",
+                "base lines": len(programs["base"]),
+                "head lines": len(programs["head"]),
+                "differing lines": differing,
+            }
+        )
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--base", required=True, help="git revision to compare against")
+    parser.add_argument("--base", help="git revision to compare against (required)")
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--compiled", action="store_true", help="compare compiled DPD programs, time nothing"
+    )
+    parser.add_argument("--print-compiled", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.print_compiled:  # the child of --compiled, running in one tree
+        print(compiled_dpd_program(args.print_compiled))
+        return
+    if args.base is None:
+        parser.error("--base: give the git revision to compare against")
     with tempfile.TemporaryDirectory() as scratch:
         base_tree = Path(scratch) / "base"
         subprocess.run(
@@ -95,6 +166,10 @@ def main() -> None:
             capture_output=True,
         )
         try:
+            if args.compiled:
+                rows = compare_compiled(base_tree)
+                print_table(list(rows[0]), rows)
+                return
             best = {"base": {}, "head": {}}
             ratios = {}  # figure -> head/base of each round
             trees = [("base", base_tree), ("head", REPOSITORY)]
