@@ -29,6 +29,24 @@ def test_overflowing_chunk_is_rerun_from_its_start_with_larger_buffers():
     np.testing.assert_array_equal(final.velocities, reference.velocities)
 
 
+def test_buffers_far_larger_than_needed_are_refitted_between_chunks():
+    """Buffers grown to three times the cell occupancy (as after a random start) are
+    refitted before the next chunk, and the trajectory is the one the oversized
+    buffers give: refitting changes the work per step, not the pairs or their order."""
+    simulation = build(make_scene())
+    start = simulation.init_fn()
+    occupancy = int(start.pair_list.needed_cell_occupancy)
+    oversized = simulation.reallocate(start, (0, 3 * occupancy))
+    assert oversized.pair_list.cell_capacity >= 3 * occupancy
+    final = driver.run(simulation, oversized, 40, 20)
+    assert final.pair_list.cell_capacity == simulation.fitted_shapes(oversized)[1]
+    assert final.pair_list.cell_capacity < oversized.pair_list.cell_capacity
+    (unfitted, _) = driver._scan_chunk(simulation.step_fn, oversized, 40)
+    assert unfitted.pair_list.cell_capacity == oversized.pair_list.cell_capacity
+    np.testing.assert_array_equal(final.positions, unfitted.positions)
+    np.testing.assert_array_equal(final.velocities, unfitted.velocities)
+
+
 def test_a_time_step_far_too_large_stops_with_a_message_and_a_checkpoint(tmp_path):
     scene = make_scene(integrator={"dt": 3.0}, run={"steps": 200, "chunk": 20})
     path = tmp_path / "unstable.h5"

@@ -427,6 +427,18 @@ def build_decomposed(scene) -> DecomposedSimulation:
             state.migration_capacity,
         )
 
+    def sizes_for(needs) -> list:
+        """Buffer sizes holding `needs` with the capacity multiplier's head room (the
+        cell slots with a fifth, at least 3, to spare)."""
+        pairs, cells, capacity, halo, migration = (math.ceil(n * multiplier) for n in needs)
+        cells = needs[1] + max(3, math.ceil(0.2 * needs[1]))
+        return [max(pairs, 16), cells, capacity, max(halo, 8), max(migration, 8)]
+
+    def fitted_shapes(state) -> tuple:
+        """The sizes `reallocate(state, None)` gives (the current ones before any step)."""
+        needs = buffer_needs(state)
+        return buffer_shapes(state) if needs[2] == 0 else tuple(sizes_for(needs))
+
     def reallocate(state, needs):
         """Buffers re-sized with the capacity multiplier's head room: for `needs`
         (`buffer_needs` of an overflowed chunk), never smaller than before; or, with
@@ -438,8 +450,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
         needs = buffer_needs(state) if fitting else needs
         if fitting and needs[2] == 0:  # not stepped since its buffers were sized
             return state
-        sizes = [math.ceil(need * multiplier) for need in needs]
-        sizes[1] = needs[1] + max(3, math.ceil(0.2 * needs[1]))
+        sizes = sizes_for(needs)
         if not fitting:
             sizes = [max(size, shape) for size, shape in zip(sizes, shapes, strict=True)]
         pairs, cells, capacity, halo_capacity, migration_capacity = sizes
@@ -449,9 +460,9 @@ def build_decomposed(scene) -> DecomposedSimulation:
             jax.tree.map(np.asarray, state.box_state),
             template,
             capacity,
-            max(halo_capacity, 8),
-            max(migration_capacity, 8),
-            max(pairs, 16),
+            halo_capacity,
+            migration_capacity,
+            pairs,
             cells,
         )
 
@@ -469,6 +480,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
         init_observers=lambda state: state,
         buffer_needs=buffer_needs,
         buffer_shapes=buffer_shapes,
+        fitted_shapes=fitted_shapes,
         layout=layout,
         mesh=mesh,
     )

@@ -74,6 +74,20 @@ class NeighborBuffers:
             needs += spring_pair_needs(state.spring_pairs)
         return needs
 
+    def fitted_shapes(self, state) -> tuple:
+        """The shapes `reallocate(state, None)` would give the particle pair list
+        (the pairs it needed since it was sized kept as a floor), found without
+        building anything; the current shapes where the backend cannot tell."""
+        shapes = self.shapes(state)
+        if self.search is None or self.search.fit is None:
+            return shapes
+        first, stop = self.force_range
+        pairs = (np.asarray(state.pair_list.needed_pairs), 0)
+        fitted = self.search.fit(
+            state.positions[first:stop], self.capacity_multiplier, pairs, state.box_state
+        )
+        return fitted + shapes[2:]
+
     def shapes(self, state) -> tuple:
         """The static buffer sizes that replicas must share to be stacked."""
         shapes = (state.pair_list.capacity, state.pair_list.cell_capacity)

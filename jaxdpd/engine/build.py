@@ -91,6 +91,9 @@ class Simulation:
             `reallocate` takes their largest).
         buffer_shapes: `buffer_shapes(state) -> tuple`: the static buffer sizes that
             replicas must share to be stacked.
+        fitted_shapes: `fitted_shapes(state) -> tuple`: the sizes `reallocate(state,
+            None)` would give, in `buffer_shapes`' order, found without building
+            (the driver shrinks buffers that have grown far larger than this).
         init_observers: `init_observers(state) -> state` with empty on-device
             accumulators (`state.observers`), e.g. to discard the equilibration.
     """
@@ -108,6 +111,7 @@ class Simulation:
     init_observers: Callable
     buffer_needs: Callable
     buffer_shapes: Callable
+    fitted_shapes: Callable
 
 
 def pair_terms(scene: Scene, dtype) -> list:
@@ -406,4 +410,5 @@ def build(scene: Scene) -> Simulation:
         init_observers,
         buffers.needs,
         buffers.shapes,
+        buffers.fitted_shapes,
     )

@@ -6,6 +6,12 @@ jitted call.  After every chunk the driver reads the error flags (of every repli
 - neighbour overflow: the buffers are reallocated from the needs the chunk recorded
   (a batch's replicas all to its largest need, so their shapes stay common) and the
   chunk is rerun from its saved start state (no step lost or duplicated);
+- buffers far larger than the state needs (sized for a random start, whose
+  ideal-gas density fluctuations a liquid soon loses): when a buffer's fitted size
+  (`simulation.fitted_shapes`) is at most `SHRINK_BELOW` of its size, the buffers are
+  refitted to the state before the next chunk (one recompilation; checked before
+  every chunk, so a run continued by repeated calls is refitted too), and no run
+  keeps paying for its start;
 - anything else (non-finite values, ...): the last good state (the chunk's start)
   is handed to `on_error` (e.g. written as a checkpoint) and `SimulationError` is
   raised with a message saying what went wrong (in which replicas) and what to change.
@@ -30,6 +36,10 @@ from jaxdpd.observables import reduce_samples
 from jaxdpd.run import ensemble
 
 MAX_REALLOCATIONS = 8
+# Refit when a buffer would shrink to this fraction of its size or less: the saving
+# then outweighs a recompilation within a few chunks, and a liquid's fluctuations
+# (well inside a fit's head room) cannot make refits alternate with overflows.
+SHRINK_BELOW = 0.75
 
 
 @dataclass
@@ -138,6 +148,15 @@ def _reallocate(simulation, state, needs):
     return ensemble.shard(resized) if sharded else resized
 
 
+def _oversized(simulation, state) -> bool:
+    """True when some neighbour buffer (of any replica of a batch) would fit in at
+    most SHRINK_BELOW of its size."""
+    replicas = ensemble.unstack(state) if ensemble.is_batch(state) else [state]
+    fitted = np.max([simulation.fitted_shapes(replica) for replica in replicas], axis=0)
+    shapes = np.asarray(simulation.buffer_shapes(replicas[0]))
+    return bool(np.any(fitted <= SHRINK_BELOW * shapes))
+
+
 def _describe(flags: np.ndarray) -> str:
     """The error flags of a state, or of a batch's failed replicas by index."""
     if flags.ndim == 0:
@@ -215,6 +234,8 @@ def run(
         if reason:
             raise RunInterrupted(state, reason)
         length = min(chunk, steps - done)
+        if _oversized(simulation, state):
+            state = _reallocate(simulation, state, None)
         try:
             new_state, samples, _ = run_chunk(simulation, state, length)
         except errors.SimulationError as error:

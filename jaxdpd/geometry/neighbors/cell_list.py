@@ -465,17 +465,20 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_r
             return jnp.zeros(n_cells_total, jnp.int32).at[ids].add(1, mode="drop")
         return jnp.zeros(n_cells_total, jnp.int32).at[_cell_id(cell_xyz, n_cells)].add(1)
 
-    def allocate(
+    def fit(
         positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None
-    ) -> PairList:
-        """Size the buffers for `positions` (outside jit), then build the list.
+    ) -> tuple[int, int]:
+        """(pair capacity, cell capacity) for `positions` (outside jit), built from
+        the cell occupancies alone.
 
-        The pair buffer starts from the ideal-gas estimate ½N(N−1)·(4π/3)r_list³/V
-        and is re-sized once if the configuration holds more pairs.
+        The pair buffer starts from the ideal-gas estimate ½N(N−1)·(4π/3)r_list³/V;
+        the cell buffer holds the fullest cell with a fifth (at least 3 slots) to
+        spare, and enough slots that the crowded particles fill at most half the
+        room kept for them.
 
         Args:
             positions: (N, 3) wrapped positions.
-            capacity_multiplier: head-room factor (≥ 1) on the counts found.
+            capacity_multiplier: head-room factor (≥ 1) on the pair count.
             minimum: optional (pairs, cell occupancy) the buffers must at least hold,
                 e.g. the needs recorded when a chunk overflowed.
             box_state: the box state of a flowing box (None at rest).
@@ -492,7 +495,14 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_r
             room = crowd_capacity(n_particles, cell_capacity, dense_slots)
         ideal = 0.5 * n_particles * (n_particles - 1) * 4 / 3 * math.pi * list_cutoff**3
         pairs = max(ideal / box.volume, int(min_pairs))
-        capacity = max(16, math.ceil(pairs * capacity_multiplier))
+        return max(16, math.ceil(pairs * capacity_multiplier)), cell_capacity
+
+    def allocate(
+        positions, capacity_multiplier: float = 1.25, minimum=None, box_state=None
+    ) -> PairList:
+        """Size the buffers for `positions` (outside jit, see `fit`), then build the
+        list, re-sized once if the configuration holds more pairs than estimated."""
+        capacity, cell_capacity = fit(positions, capacity_multiplier, minimum, box_state)
         pair_list = build_jit(positions, box_state, cell_capacity, capacity)
         if int(pair_list.needed_pairs) > pair_list.capacity:
             needed = math.ceil(int(pair_list.needed_pairs) * capacity_multiplier)
@@ -516,4 +526,6 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_r
         stale = needs_rebuild(box, positions, pair_list, box_state, skin)
         return jax.lax.cond(stale, rebuild, lambda old: old, pair_list)
 
-    return NeighborSearch(allocate=allocate, update=update, half=True, cutoff=cutoff, skin=skin)
+    return NeighborSearch(
+        allocate=allocate, update=update, half=True, cutoff=cutoff, skin=skin, fit=fit
+    )

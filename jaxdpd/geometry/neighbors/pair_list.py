@@ -55,6 +55,10 @@ class NeighborSearch:
         half: True when each pair is listed once.
         cutoff: interaction cut-off r_c.
         skin: Verlet skin added to the cut-off.
+        fit: `fit(positions, capacity_multiplier, minimum, box_state) -> (pair
+            capacity, cell capacity)`, host side: the sizes `allocate` would start
+            from, found without building a list; None where a backend cannot tell
+            (its buffers are then never shrunk by the driver).
     """
 
     allocate: Callable
@@ -62,6 +66,7 @@ class NeighborSearch:
     half: bool
     cutoff: float
     skin: float
+    fit: Callable | None = None
 
 
 def needs_rebuild(box, positions, pair_list, box_state, skin: float):
