@@ -16,10 +16,14 @@ import numpy as np
 import pytest
 from io_runs import lees_edwards_edges, polymer_reference_run, reference_run
 
+from jaxdpd.geometry.boxes import make_box
 from jaxdpd.io.formats import FILE_FORMATS
+from jaxdpd.io.formats.configuration import Configuration
+from jaxdpd.io.h5md import box_edges
 from jaxdpd.io.initial import read_initial
 from jaxdpd.run.cli import main
 from jaxdpd.run.runner import prepare
+from jaxdpd.scene import Flow
 from jaxdpd.validation import SceneError
 
 gsd_hoomd = pytest.importorskip("gsd.hoomd")
@@ -235,3 +239,22 @@ def test_initial_section_errors_name_their_field():
     with pytest.raises(SceneError, match="cannot read it as gsd") as raised:
         read_initial(polymer_reference_run().scene.replace(initial={"file": "missing.gsd"}))
     assert raised.value.field == "initial.file"
+
+
+def test_kraynik_reinelt_cells_go_to_xyz_and_are_refused_by_gsd_and_lammps(tmp_path):
+    """A Kraynik–Reinelt cell (thesis §3.4, case 1 at the start: tilted in x–z) is no
+    restricted triclinic cell; XYZ stores its lattice vectors as they are."""
+    box = make_box("kraynik_reinelt", (7.0, 5.0, 7.0), Flow("planar_elongation", 0, None, 0.2))
+    lattice = box_edges(box.bind(box.initial_state(np.float64)))
+    assert lattice[0, 2] != 0  # a1 leaves the x–y plane
+    rng = np.random.default_rng(1)
+    positions = rng.uniform(size=(20, 3)) @ lattice
+    configuration = Configuration(positions, lattice, np.zeros(20, int), ("a",))
+    for name, suffix in (("gsd", ".gsd"), ("lammps-data", ".data")):
+        with pytest.raises(ValueError, match="export it as extended XYZ"):
+            FILE_FORMATS.get(name).write(tmp_path / f"kr{suffix}", [configuration])
+    FILE_FORMATS.get("xyz").write(tmp_path / "kr.xyz", [configuration])
+    back = FILE_FORMATS.get("xyz").read(tmp_path / "kr.xyz")
+    np.testing.assert_array_equal(back.lattice, lattice)
+    fractions = (back.positions - positions) @ np.linalg.inv(lattice)
+    np.testing.assert_allclose(fractions, np.round(fractions), atol=1e-12)
