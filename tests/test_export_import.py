@@ -17,9 +17,11 @@ import pytest
 from io_runs import lees_edwards_edges, polymer_reference_run, reference_run
 
 from jaxdpd.geometry.boxes import make_box
+from jaxdpd.geometry.chain_topology import chain_blocks
+from jaxdpd.geometry.placement import initial_configuration
 from jaxdpd.io.formats import FILE_FORMATS
 from jaxdpd.io.formats.configuration import Configuration
-from jaxdpd.io.h5md import box_edges
+from jaxdpd.io.h5md import H5MDWriter, box_edges
 from jaxdpd.io.initial import read_initial
 from jaxdpd.run.cli import main
 from jaxdpd.run.runner import prepare
@@ -258,3 +260,14 @@ def test_kraynik_reinelt_cells_go_to_xyz_and_are_refused_by_gsd_and_lammps(tmp_p
     np.testing.assert_array_equal(back.lattice, lattice)
     fractions = (back.positions - positions) @ np.linalg.inv(lattice)
     np.testing.assert_allclose(fractions, np.round(fractions), atol=1e-12)
+
+
+def test_bad_positions_and_a_run_without_frames_are_refused_clearly(tmp_path, capsys):
+    scene = polymer_reference_run().scene
+    box = make_box(scene.box.kind, scene.box.lengths, scene.flow)
+    with pytest.raises(ValueError, match=r"init_fn: positions must be a finite \(N, 3\) array"):
+        initial_configuration(scene, box, np.float32, chain_blocks(scene), np.zeros((5, 3)))
+    empty = tmp_path / "header.h5md"
+    H5MDWriter.create(empty, scene).close()  # no frames written
+    assert main(["export", str(empty), "--format", "xyz"]) == 2
+    assert "holds no frames to export" in capsys.readouterr().err
