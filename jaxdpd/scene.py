@@ -89,7 +89,14 @@ Sections and fields (reduced DPD units, r_c = m = k_BT = 1):
                 by step count); checkpoint_seconds ≥ 0 (wall-clock seconds between
                 checkpoints, default 300, 0 = none by time); checkpoints are also
                 written at the end, on errors and on SIGINT/SIGTERM; trajectory_every
-                and checkpoint_every are multiples of run.chunk
+                and checkpoint_every are multiples of run.chunk; author (the H5MD
+                author name, default the OS login)
+    [initial]   file = a GSD, extended XYZ or LAMMPS data file to start from (its
+                positions, and velocities where it holds them; jaxdpd.io.initial);
+                frame = index of the frame to take (default −1, the last); format =
+                "gsd" | "xyz" | "lammps-data" (default: from the file's extension);
+                particle counts, species and bonds must match the scene; not with
+                box.kind = "kraynik_reinelt"
 """
 
 import json
@@ -299,6 +306,7 @@ class Output:
     checkpoint_every: int = 0
     checkpoint_seconds: float = 300.0
     settings: tuple[tuple[str, object], ...] = ()
+    author: str | None = None
 
     def __getattr__(self, name: str):
         for key, value in self.__dict__.get("settings", ()):
@@ -318,7 +326,22 @@ class Output:
         }
         if self.path is None:
             del data["path"]
+        if self.author is not None:
+            data["author"] = self.author
         return data
+
+
+@dataclass(frozen=True)
+class Initial:
+    """[initial]: start from a configuration file (jaxdpd.io.initial).
+
+    file: its path; frame: the frame to take (negative: from the end); format: the
+    file format's name (jaxdpd.io.formats.FILE_FORMATS).
+    """
+
+    file: str
+    frame: int = -1
+    format: str = "gsd"
 
 
 @dataclass(frozen=True)
@@ -341,6 +364,7 @@ class Scene:
     parallel: Parallel = field(default_factory=Parallel)
     run: Run = field(default_factory=Run)
     output: Output = field(default_factory=Output)
+    initial: Initial | None = None
 
     # -- construction -------------------------------------------------------------
     @classmethod
@@ -402,6 +426,7 @@ class Scene:
                 "parallel",
                 "run",
                 "output",
+                "initial",
             ),
             "scene",
         )
@@ -491,6 +516,7 @@ class Scene:
             parallel=_read_parallel(data.get("parallel", {})),
             run=run,
             output=output,
+            initial=_read_initial(data.get("initial"), box_kind),
         )
         method.check(scene)
         _check_observables(scene)
@@ -588,6 +614,8 @@ class Scene:
             del data["spring_repulsion"]
         else:
             data["spring_repulsion"] = self.spring_repulsion.table()
+        if self.initial is None:
+            del data["initial"]
         if self.flow is None:
             del data["flow"]
         else:
@@ -946,6 +974,7 @@ def _read_output(section, chunk: int, method: SolventMethod, cutoff: float) -> O
             "trajectory_every",
             "checkpoint_every",
             "checkpoint_seconds",
+            "author",
             *(setting.name for setting in settings),
         ),
         "output",
@@ -972,7 +1001,27 @@ def _read_output(section, chunk: int, method: SolventMethod, cutoff: float) -> O
         **every,
         checkpoint_seconds=read_number(section, "checkpoint_seconds", "output", 300.0, minimum=0),
         settings=tuple((setting.name, setting.read(section, cutoff)) for setting in settings),
+        author=read_string(section, "author", "output", None),
     )
+
+
+def _read_initial(section, box_kind: str) -> Initial | None:
+    """The [initial] section: the file, its frame and format (read when the run
+    starts, jaxdpd.io.initial, so a stored scene reloads without the file)."""
+    if section is None:
+        return None
+    from jaxdpd.io.formats import format_of  # io reads scenes: imported when used
+
+    check_keys(section, ("file", "frame", "format"), "initial")
+    if box_kind == "kraynik_reinelt":
+        raise ValueError(
+            "initial: a Kraynik–Reinelt box starts from its own tilted cell; starting "
+            "from a file is supported in periodic and Lees–Edwards boxes (remove [initial])"
+        )
+    file = read_string(section, "file", "initial")
+    frame = read_number(section, "frame", "initial", -1, minimum=-(2**31), integer=True)
+    name = read_string(section, "format", "initial", None)
+    return Initial(file, frame, format_of(file, name).name)
 
 
 def _check_observables(scene: Scene) -> None:

@@ -110,7 +110,7 @@ class ReferenceRun:
 def _scratch(name: str) -> Path:
     folder = tempfile.mkdtemp(prefix=f"jaxdpd-{name}-")
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
-    return Path(folder) / f"{name}.h5"
+    return Path(folder) / f"{name}.h5md"
 
 
 @functools.cache

@@ -34,7 +34,7 @@ def test_h5md_file_holds_the_h5md_1_1_layout_scene_series_frames_and_checkpoint(
         assert handle["h5md/creator"].attrs["name"] == "jaxdpd"
         assert "name" in handle["h5md/author"].attrs
         assert "r_c = m = k_BT = 1" in handle["parameters"].attrs["units"]
-        particles = handle["particles/all"]
+        particles = handle["particles/trajectory"]
         assert particles["box"].attrs["dimension"] == 3
         assert [b.decode() for b in particles["box"].attrs["boundary"]] == ["periodic"] * 3
         position = particles["position"]
@@ -75,7 +75,7 @@ def test_polymer_runs_store_bonds_and_run_averages():
     scene = reference.scene
     with h5py.File(reference.path, "r") as handle:
         bonds = handle["connectivity/bonds"]
-        assert handle[bonds.attrs["particles_group"]].name == "/particles/all"
+        assert handle[bonds.attrs["particles_group"]].name == "/particles/trajectory"
         np.testing.assert_array_equal(bonds[:3], [[0, 1], [2, 3], [4, 5]])
         assert handle["averages/rdf/g"].shape == (scene.output.rdf_bins,)
         assert handle["averages/rdf"].attrs["samples"] == scene.run.steps // scene.run.chunk
@@ -181,7 +181,7 @@ chunk = 30
     printed = capsys.readouterr().out
     assert "temperature" in printed and "pressure" in printed and "particle-steps/s" in printed
     with h5py.File(output, "r") as handle:  # no frames: the box is a fixed element
-        edges = handle["particles/all/box/edges"][()]
+        edges = handle["particles/trajectory/box/edges"][()]
     np.testing.assert_allclose(edges, [(500 / 3.0) ** (1 / 3)] * 3, rtol=1e-15)
 
 

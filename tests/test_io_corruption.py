@@ -147,8 +147,8 @@ DAMAGE = {
         r"observables/pressure/value holds 7 samples, the checkpoint at step 2400 counts 2400",
     ),
     "last frame block damaged": (
-        _flip_in("particles/all/position/value", chunk=-1),
-        "particles/all/position/value: the block holding its last sample",
+        _flip_in("particles/trajectory/position/value", chunk=-1),
+        "particles/trajectory/position/value: the block holding its last sample",
     ),
 }
 

@@ -25,9 +25,9 @@ def test_mdanalysis_reads_positions_sheared_box_time_and_reports_no_physical_uni
     # Reduced units: the files carry no H5MD `unit` attributes, MDAnalysis says None.
     assert trajectory.units == {"time": None, "length": None, "velocity": None, "force": None}
     with h5py.File(path, "r") as handle:
-        written = handle["particles/all/position/value"][()]
-        velocities = handle["particles/all/velocity/value"][()]
-        steps = handle["particles/all/position/step"][()]
+        written = handle["particles/trajectory/position/value"][()]
+        velocities = handle["particles/trajectory/velocity/value"][()]
+        steps = handle["particles/trajectory/position/step"][()]
     assert trajectory.n_frames == len(written) == scene.run.steps // scene.output.trajectory_every
     for frame, timestep in enumerate(trajectory):
         np.testing.assert_array_equal(timestep.positions, written[frame].astype(np.float32))

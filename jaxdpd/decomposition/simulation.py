@@ -378,8 +378,8 @@ def build_decomposed(scene) -> DecomposedSimulation:
         ideal = 0.5 * present * density * 4 / 3 * math.pi * reach**3
         return max(16, math.ceil(ideal * multiplier))
 
-    def init_fn():
-        state = serial.init_fn()
+    def init_fn(positions=None, velocities=None):
+        state = serial.init_fn(positions, velocities)
         template = DecomposedState(
             rows=None,
             pair_list=None,

@@ -79,7 +79,9 @@ class Simulation:
         neighbor_search: the neighbour backend (None when no pair term exists).
         spring_search: the spring-pair list's builder (None when nothing reads spring
             pairs).
-        init_fn: `init_fn() -> SimState`, the initial state of the scene's seed.
+        init_fn: `init_fn(positions=None, velocities=None) -> SimState`, the initial
+            state of the scene's seed, or of the (N, 3) positions (any periodic image,
+            chains unbroken) and velocities given (jaxdpd.geometry.placement).
         step_fn: `step_fn(state) -> (state, samples)`, pure and jittable; samples is
             a dict of per-step arrays (kinetic and virial tensors as requested).
         reallocate: `reallocate(state, needs) -> state` with neighbour buffers
@@ -354,8 +356,10 @@ def build(scene: Scene) -> Simulation:
     def init_observers(state):
         return initial_observers(observables, context, state)
 
-    def init_fn():
-        positions, image, velocities, species = initial_configuration(scene, box, dtype, blocks)
+    def init_fn(positions=None, velocities=None):
+        positions, image, velocities, species = initial_configuration(
+            scene, box, dtype, blocks, positions, velocities
+        )
         box_state = box.initial_state(dtype)
         state = SimState(
             positions=positions,

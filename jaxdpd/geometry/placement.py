@@ -24,6 +24,11 @@ keeps at least the repulsion range from all earlier springs sharing no bead with
 
 The configuration is drawn on the host with NumPy's PCG64 generator seeded by the
 scene's seed (no device compilation for a one-off), then cast to the scene's dtype.
+
+Positions and velocities may be given instead (`init_fn(positions=...,
+velocities=...)`, a scene's [initial] file): positions in any periodic image, each
+chain unbroken (its springs as the vectors between consecutive beads), are wrapped
+into the box with image counters, as drawn ones are; velocities not given are drawn.
 """
 
 import time
@@ -36,7 +41,7 @@ from jaxdpd.forces.pair_laws import PAIR_LAWS
 from jaxdpd.forces.spring_repulsion import closest_approach
 
 
-def initial_configuration(scene, box, dtype, blocks):
+def initial_configuration(scene, box, dtype, blocks, given_positions=None, velocities=None):
     """The starting state of `scene`'s seed.
 
     Args:
@@ -44,15 +49,24 @@ def initial_configuration(scene, box, dtype, blocks):
         box: its periodic box.
         dtype: floating dtype.
         blocks: the scene's ChainBlocks (jaxdpd.geometry.chain_topology.chain_blocks).
+        given_positions: (N, 3) positions to start from (module docstring), or None.
+        velocities: (N, 3) velocities to start from, or None.
     Returns:
         positions (N, 3) wrapped, image (N, 3) int32 counters consistent with
         unbroken chains, velocities (N, 3), species (N,) int32 (species in blocks).
+    Raises:
+        ValueError: given positions or velocities of another shape, not finite, or
+            in a Kraynik–Reinelt box (whose initial cell is tilted).
     """
     n = scene.n_particles
     rng = np.random.default_rng(scene.seed)
     lengths = np.asarray(box.lengths, np.float64)
     core = None if scene.pair is None else PAIR_LAWS.get(scene.pair.kind).core_diameter(scene.pair)
-    if core is not None:
+    if given_positions is not None:
+        if getattr(box, "cartesian_at_start", None) is not None:
+            raise ValueError("init_fn: positions cannot be given in a Kraynik–Reinelt box")
+        unwrapped = _given(given_positions, "positions", n)
+    elif core is not None:
         unwrapped = _excluded_volume_configuration(rng, n, blocks, lengths, core)
     else:
         unwrapped = rng.uniform(size=(n, 3)) * lengths
@@ -77,14 +91,28 @@ def initial_configuration(scene, box, dtype, blocks):
     counts = [s.count for s in scene.particles.species]
     species = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
     masses = np.array([s.mass for s in scene.particles.species])[species]
-    velocities = rng.normal(size=(n, 3)) * np.sqrt(scene.solvent.kT / masses)[:, None]
-    velocities -= (masses @ velocities) / masses.sum()
+    if velocities is not None:
+        velocities = _given(velocities, "velocities", n)
+    else:
+        velocities = rng.normal(size=(n, 3)) * np.sqrt(scene.solvent.kT / masses)[:, None]
+        velocities -= (masses @ velocities) / masses.sum()
     return (
         jnp.asarray(positions),
         jnp.asarray(image, jnp.int32),
         jnp.asarray(velocities, dtype),
         jnp.asarray(species),
     )
+
+
+def _given(values, name: str, n: int) -> np.ndarray:
+    """`values` as a float64 (N, 3) array, or a ValueError naming `name`."""
+    values = np.asarray(values, np.float64)
+    if values.shape != (n, 3) or not np.all(np.isfinite(values)):
+        raise ValueError(
+            f"init_fn: {name} must be a finite (N, 3) array for the scene's N = {n} "
+            f"particles, got shape {values.shape}"
+        )
+    return values
 
 
 def _random_walks(rng, block, lengths):

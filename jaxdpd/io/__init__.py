@@ -10,6 +10,9 @@ read_observable(s), read_trajectory,
 read_checkpoint
 checkpoint_path                     the checkpoint file beside an output file
                                     (jaxdpd.io.checkpoint: why, and its layout)
+export                              frames to GSD, extended XYZ, LAMMPS data
+                                    (jaxdpd.io.export; formats: jaxdpd.io.formats)
+read_initial                        a scene's [initial] file (jaxdpd.io.initial)
 RunFileError                        raised for files that cannot be read back
 OutputError                         raised when writing the output fails
 """

@@ -1,5 +1,5 @@
 """Checkpoints: the whole SimState and the run's progress, in a file of their own
-beside the output file (`run.h5` → `run.h5.checkpoint`), replaced atomically.
+beside the output file (`run.h5md` → `run.h5md.checkpoint`), replaced atomically.
 
 Why a file of its own, replaced whole: a checkpoint overwritten in place inside the
 output file is lost when the process dies while writing it (kill -9, power cut,
@@ -76,7 +76,7 @@ _HEADER_KEYS = ("format", "step", "time", "phase", "reason", "run_id", "scene", 
 
 
 def checkpoint_path(run_path) -> Path:
-    """The checkpoint file of the output file `run_path` (`run.h5.checkpoint`)."""
+    """The checkpoint file of the output file `run_path` (`run.h5md.checkpoint`)."""
     return Path(f"{run_path}{SUFFIX}")
 
 

@@ -3,11 +3,13 @@ specification at nongnu.org/h5md, version 1.1).
 
 Layout written:
 
-    /h5md                       version = [1, 1]; author/name; creator/name, version
+    /h5md                       version = [1, 1]; author/name (output.author, default
+                                the OS login); creator/name, version
     /parameters                 attrs: scene (JSON of Scene.to_dict), scene_crc32
                                 (its CRC-32: a damaged scene is refused, not run),
                                 run_id (pairs the file with its checkpoints), units
-    /particles/all
+    /particles/trajectory       (named so for MDAnalysis, see jaxdpd.io.layout; files
+                                written before name it "all" and stay readable)
          box                    dimension = 3, boundary = periodic ×3
               edges/{step,time,value (T, 3)}     sampled with the positions (T, 3, 3
                                                  lattice vectors in Lees–Edwards
@@ -15,6 +17,7 @@ Layout written:
                                                  elongation, see box_edges), or the fixed
                                                  (3,) edge lengths without frames
          species                (N,) HDF5 enumeration: species index → name
+         mass                   (N,) particle masses (units of m; time-independent)
          position/{step,time,value (T, N, 3)}    every output.trajectory_every
          velocity/{value (T, N, 3)}              production steps; step and time
          image/{value (T, N, 3) int32}           hard-linked to position's (spec)
@@ -31,9 +34,11 @@ The whole state for restarts is in a checkpoint file beside this one,
 
 Times are step × scene.step_time (integrator.dt; the collision time h for MPCD).
 Data carry no H5MD `unit` attribute: jaxdpd works in reduced units, which the H5MD
-units module (SI only) cannot express; the unit of each element is given by a
-`reduced_unit` attribute and the convention by /parameters:units.  MDAnalysis
-therefore opens the files with `convert_units=False`.
+units module (SI only) cannot express; the unit of each dataset (values, times, lag
+times; "1" for dimensionless ones) is given by a `reduced_unit` attribute and the
+convention by /parameters:units.  MDAnalysis therefore opens the files with
+`convert_units=False`.  New files end in `.h5md` where jaxdpd names them
+(jaxdpd.io.layout.EXTENSION).
 g(r) and the time correlations sit under /averages rather than /observables because
 MDAnalysis reads every observable at every frame index.  Time series are written with Fletcher-32
 checksums, so corrupted data raise an error when read.
@@ -66,7 +71,14 @@ import numpy as np
 import jaxdpd
 from jaxdpd.io import checkpoint
 from jaxdpd.io.errors import OutputError, RunFileError, first_line
-from jaxdpd.io.layout import CHUNK_BYTES, FRAME_ELEMENTS, PARTICLES, UNITS, reduced_unit
+from jaxdpd.io.layout import (
+    CHUNK_BYTES,
+    FRAME_ELEMENTS,
+    UNITS,
+    particle_group,
+    reduced_unit,
+    scene_bonds,
+)
 
 # Readers, importable from here as in earlier versions.
 from jaxdpd.io.reader import read_checkpoint, read_observable, read_scene  # noqa: F401
@@ -114,15 +126,6 @@ def box_edges(bound_box) -> np.ndarray:
     return edges
 
 
-def bond_pairs(blocks) -> np.ndarray:
-    """(B, 2) int32 particle index pairs of every spring of the chain blocks."""
-    pairs = [np.zeros((0, 2), np.int32)]
-    for block in blocks:
-        beads = np.arange(block.first, block.stop, dtype=np.int32).reshape(block.n_chains, -1)
-        pairs.append(np.stack([beads[:, :-1].ravel(), beads[:, 1:].ravel()], axis=1))
-    return np.concatenate(pairs)
-
-
 class H5MDWriter:
     """Streams a run into an H5MD file (use `create` or `reopen`).
 
@@ -135,6 +138,7 @@ class H5MDWriter:
         self.file = handle
         self.scene = scene
         self.path = handle.filename
+        self.particles = particle_group(handle)
 
     # -- opening ---------------------------------------------------------------------
     @classmethod
@@ -165,27 +169,33 @@ class H5MDWriter:
         handle, scene = self.file, self.scene
         h5md = handle.create_group("h5md")
         h5md.attrs["version"] = np.array([1, 1], np.int32)
-        h5md.create_group("author").attrs["name"] = _author()
+        h5md.create_group("author").attrs["name"] = scene.output.author or _login()
         creator = h5md.create_group("creator")
         creator.attrs["name"] = "jaxdpd"
         creator.attrs["version"] = jaxdpd.__version__
         self._write_scene()
         handle["parameters"].attrs["run_id"] = uuid.uuid4().hex
-        particles = handle.create_group(PARTICLES)
+        particles = handle.create_group(self.particles)
         box = particles.create_group("box")
         box.attrs["dimension"] = 3
         box.attrs["boundary"] = np.array([b"periodic"] * 3)
         if not scene.output.trajectory_every:  # else sampled with the frames
-            box.create_dataset("edges", data=np.asarray(scene.box.lengths, np.float64))
+            edges = box.create_dataset("edges", data=np.asarray(scene.box.lengths, np.float64))
+            edges.attrs["reduced_unit"] = reduced_unit("edges")
         names = scene.species_names
+        counts = [s.count for s in scene.particles.species]
         species_type = h5py.enum_dtype({n: k for k, n in enumerate(names)}, basetype="i4")
         particles.create_dataset(
             "species",
-            data=np.repeat(np.arange(len(names)), [s.count for s in scene.particles.species]),
+            data=np.repeat(np.arange(len(names)), counts),
             dtype=species_type,
         )
+        mass = particles.create_dataset(
+            "mass", data=np.repeat([s.mass for s in scene.particles.species], counts)
+        )
+        mass.attrs["reduced_unit"] = reduced_unit("mass")
         if blocks:
-            bonds = handle.create_dataset("connectivity/bonds", data=bond_pairs(blocks))
+            bonds = handle.create_dataset("connectivity/bonds", data=scene_bonds(scene))
             bonds.attrs["particles_group"] = particles.ref
         handle.create_group("observables", track_order=True)  # series in the run's order
         handle.flush()
@@ -359,14 +369,16 @@ class H5MDWriter:
         with self._writing(f"appending the frame of step {step}"):
             for name in FRAME_ELEMENTS:
                 value = np.asarray(getattr(state, _STATE_FIELD[name]))
-                group = self._series(f"{PARTICLES}/{name}", value.shape, value.dtype, position)
+                group = self._series(f"{self.particles}/{name}", value.shape, value.dtype, position)
                 if position is None:
                     position = group
                     self._extend(group["step"], [step])
                     self._extend(group["time"], [step * self.scene.step_time])
                 self._extend(group["value"], value[None])
             edges = np.asarray(edges, np.float64)
-            box_edges = self._series(f"{PARTICLES}/box/edges", edges.shape, edges.dtype, position)
+            box_edges = self._series(
+                f"{self.particles}/box/edges", edges.shape, edges.dtype, position
+            )
             self._extend(box_edges["value"], edges[None])
 
     # -- run results -----------------------------------------------------------------
@@ -377,7 +389,7 @@ class H5MDWriter:
                 del self.file["averages/rdf"]
             group = self.file.create_group("averages/rdf")
             group.create_dataset("r", data=r).attrs["reduced_unit"] = "r_c"
-            group.create_dataset("g", data=g)
+            group.create_dataset("g", data=g).attrs["reduced_unit"] = "1"
             group.attrs["samples"] = samples
 
     def write_warning(self, name: str, message: str | None) -> None:
@@ -400,9 +412,12 @@ class H5MDWriter:
                 del self.file[path]
             group = self.file.create_group(path)
             group.create_dataset("lag_time", data=np.asarray(lag_times, np.float64))
-            group["lag_time"].attrs["reduced_unit"] = reduced_unit("time")
             group.create_dataset("value", data=values.reshape(len(values), -1).mean(axis=1))
             group.create_dataset("per_element", data=values)
+            for part in ("lag_time", "value", "per_element"):
+                unit = reduced_unit(path if part != "lag_time" else part)
+                if unit:
+                    group[part].attrs["reduced_unit"] = unit
 
     def write_checkpoint(self, state, phase: str, reason: str, extras=None) -> None:
         """Write the checkpoint file (jaxdpd.io.checkpoint): first this file is flushed
@@ -458,7 +473,7 @@ def _scratch_descriptor() -> int:
 _STATE_FIELD = {"position": "positions", "velocity": "velocities", "image": "image"}
 
 
-def _author() -> str:
+def _login() -> str:
     try:
         return getpass.getuser()
     except (KeyError, OSError):

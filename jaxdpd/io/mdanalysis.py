@@ -9,7 +9,7 @@ and times in τ (MDAnalysis reports their units as None).
 
 import numpy as np
 
-from jaxdpd.io.layout import PARTICLES
+from jaxdpd.io.layout import particle_group
 from jaxdpd.io.reader import open_run_file, scene_of
 
 
@@ -29,7 +29,7 @@ def mdanalysis_universe(path):
 
     with open_run_file(path) as handle:
         scene = scene_of(handle)
-        species = handle[f"{PARTICLES}/species"][()]
+        species = handle[f"{particle_group(handle)}/species"][()]
         bonds = handle["connectivity/bonds"][()] if "connectivity/bonds" in handle else None
     names = np.asarray(scene.species_names, dtype=object)[species]
     universe = MDAnalysis.Universe.empty(len(names), trajectory=True)

@@ -21,7 +21,7 @@ import numpy as np
 
 from jaxdpd.io import checkpoint
 from jaxdpd.io.errors import RunFileError, open_run_file
-from jaxdpd.io.layout import PARTICLES
+from jaxdpd.io.layout import particle_group
 
 
 class Series(NamedTuple):
@@ -126,8 +126,11 @@ def time_series_names(handle) -> list[str]:
 
 
 def _read_element(path, element: str, hint) -> Series:
-    """The time-dependent element at `element`, or RunFileError with `hint(handle)`."""
+    """The time-dependent element at `element` ("particles/" standing for the
+    file's particle group), or RunFileError with `hint(handle)`."""
     with open_run_file(path) as handle:
+        if element.startswith("particles/"):
+            element = element.replace("particles", particle_group(handle), 1)
         if element not in handle:
             raise RunFileError(f"{path}: no {element} ({hint(handle)})")
         return _series(handle[element])
@@ -149,7 +152,7 @@ def read_observables(path) -> dict:
 def read_trajectory(path, element: str = "position") -> Series:
     """Stored frames of "position", "velocity" or "image": value (T, N, 3)."""
     return _read_element(
-        path, f"{PARTICLES}/{element}", lambda _: "set output.trajectory_every to write frames"
+        path, f"particles/{element}", lambda _: "set output.trajectory_every to write frames"
     )
 
 
@@ -170,12 +173,12 @@ def read_unwrapped_positions(path) -> Series:
                 f"{path}: Kraynik–Reinelt frames cannot be unwrapped (the lattice basis "
                 "changes at each reset; image counters count faces of the current cell)"
             )
-        particles = f"{PARTICLES}/position"
-        if particles not in handle:
-            raise RunFileError(f"{path}: no {particles} (set output.trajectory_every)")
-        position = _series(handle[particles])
-        image = handle[f"{PARTICLES}/image/value"][()].astype(np.float64)
-        edges = handle[f"{PARTICLES}/box/edges/value"][()]
+        particles = particle_group(handle)
+        if f"{particles}/position" not in handle:
+            raise RunFileError(f"{path}: no {particles}/position (set output.trajectory_every)")
+        position = _series(handle[f"{particles}/position"])
+        image = handle[f"{particles}/image/value"][()].astype(np.float64)
+        edges = handle[f"{particles}/box/edges/value"][()]
     lattice = edges if edges.ndim == 3 else edges[:, :, None] * np.eye(3)
     unwrapped = position.value.astype(np.float64) + np.einsum("tni,tij->tnj", image, lattice)
     return Series(position.step, position.time, unwrapped)

@@ -187,6 +187,8 @@ class Dynamics(Observable):
     )
     needs_polymers = True
     accumulates = True
+    # MSDs and ⟨R(t0) · R(t0 + t)⟩: squared lengths (written to /averages).
+    units = dict.fromkeys(SERIES, "r_c^2")
 
     def check(self, scene):
         if scene.flow is not None and scene.flow.kind == "planar_elongation":

@@ -154,7 +154,12 @@ class Conformation(Observable):
             "end_to_end_conformation",
             "gyration_radius_sq",
         )
-    } | {"spring_pair_pressure": "k_BT/r_c^3"}
+    } | {
+        "spring_pair_pressure": "k_BT/r_c^3",
+        # ⟨|R_e|⟩/L_c and ⟨R_e²⟩/L_c²: ratios of lengths.
+        "fractional_extension": "1",
+        "fractional_extension_sq": "1",
+    }
 
     def sampler(self, context):
         scene, box, blocks = context.scene, context.box, context.blocks

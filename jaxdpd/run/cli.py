@@ -3,6 +3,8 @@
     jaxdpd run SCENE.toml [-o FILE] [--steps N] [--devices D] [-q] [--overwrite]
     jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
     jaxdpd demo [-o FILE] [-q]
+    jaxdpd export RUN --format gsd|xyz|lammps-data [-o OUT] [--frames SPEC]
+                  [--atom-style bond|full]
 
 Exit status: 0 done; 2 invalid input (scene, file or arguments, including a file to
 restart that is damaged or incomplete; one line on stderr names the problem); 3 the
@@ -22,11 +24,15 @@ import signal
 import sys
 import time
 from importlib import resources
+from pathlib import Path
 
 from jaxdpd.decomposition.host_devices import request_host_devices
 from jaxdpd.engine.errors import SimulationError
 from jaxdpd.io.checkpoint import checkpoint_path, read_checkpoint_info
 from jaxdpd.io.errors import OutputError, RunFileError
+from jaxdpd.io.export import export
+from jaxdpd.io.formats import FILE_FORMATS
+from jaxdpd.io.formats.lammps_data import ATOM_STYLES
 from jaxdpd.io.reader import read_scene
 from jaxdpd.run.driver import RunInterrupted
 from jaxdpd.run.runner import prepare, prepare_resume
@@ -91,6 +97,8 @@ def _prepare(args):
         scene = scene.replace(run={"steps": args.steps})
     if args.devices is not None:
         scene = scene.replace(parallel={"devices": args.devices})
+    if args.author is not None:
+        scene = scene.replace(output={"author": args.author})
     request_host_devices(scene.parallel.devices)
     path = args.output or scene.output.path
     if path and not args.overwrite:
@@ -168,6 +176,8 @@ def main(argv=None) -> int:
         action="store_true",
         help="overwrite an output file holding an unfinished run",
     )
+    run.add_argument("--author", help="author name in the H5MD file (overrides output.author)")
+    _add_export(commands)
     demo = commands.add_parser("demo", help="run the embedded default scene")
     demo.add_argument("-o", "--output", help="H5MD output file")
     demo.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -193,8 +203,43 @@ def main(argv=None) -> int:
             signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _add_export(commands) -> None:
+    export = commands.add_parser(
+        "export", help="write a run's frames as GSD, extended XYZ or a LAMMPS data file"
+    )
+    export.add_argument("run_file", metavar="RUN", help="H5MD file of a run (with frames)")
+    export.add_argument("--format", required=True, choices=FILE_FORMATS.names())
+    export.add_argument(
+        "-o", "--output", help="file to write (default: RUN with the format's extension)"
+    )
+    export.add_argument(
+        "--frames",
+        metavar="SPEC",
+        help="all, last, an index or a slice start:stop:step (default: all; last for lammps-data)",
+    )
+    export.add_argument(
+        "--atom-style", choices=ATOM_STYLES, default="bond", help="of a LAMMPS data file"
+    )
+
+
+def _export(args) -> int:
+    """`jaxdpd export`: the exit status."""
+    module = FILE_FORMATS.get(args.format)
+    output = args.output or str(Path(args.run_file).with_suffix(module.extensions[0]))
+    options = {name: getattr(args, name) for name in module.write_options}
+    try:
+        count = export(args.run_file, output, args.format, args.frames, **options)
+    except (ValueError, OSError, ImportError) as error:
+        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+        return INVALID_INPUT
+    print(f"{count} frame(s) of {args.run_file} written to {output} ({args.format})")
+    return 0
+
+
 def _run(args) -> int:
     """Prepare and execute the command; the exit status."""
+    if args.command == "export":
+        return _export(args)
     try:
         prepared, path = _prepare(args)
     except (ValueError, TypeError, OSError) as error:

@@ -12,7 +12,7 @@ gloo on CPUs, NCCL on GPUs).  A replica's arithmetic does not depend on which
 process runs it or on how many replicas share its batch, so the sweep equals the
 single-process batch of the same replicas (tests/test_multi_process_ensemble.py).
 
-Files: one H5MD file per replica (`output_dir/replica_0003.h5`), written only by
+Files: one H5MD file per replica (`output_dir/replica_0003.h5md`), written only by
 the process that owns the replica, so no two processes ever write one file.  Its
 header holds the sweep's scene with the replica's seed and flow rate.
 
@@ -36,6 +36,8 @@ from jaxdpd.engine.build import build
 from jaxdpd.geometry.flows import RATE_FIELDS
 from jaxdpd.io.checkpoint import PRODUCTION
 from jaxdpd.io.h5md import H5MDWriter, box_edges
+from jaxdpd.io.initial import read_initial
+from jaxdpd.io.layout import EXTENSION
 from jaxdpd.run import driver, ensemble
 from jaxdpd.scene import Scene
 
@@ -134,7 +136,7 @@ class SweepResult:
 
 def replica_path(directory, replica: int) -> Path:
     """The H5MD file of one replica of a sweep."""
-    return Path(directory) / f"replica_{replica:04d}.h5"
+    return Path(directory) / f"replica_{replica:04d}{EXTENSION}"
 
 
 def replica_scene(scene: Scene, seed: int, rate=None) -> Scene:
@@ -318,7 +320,8 @@ def main(argv=None) -> int:
     seeds = args.seeds or [scene.seed]
     rates = args.flow_rates
     grid = [(s, r) for s in seeds for r in (rates or [None])]
-    start = driver.run(simulation, simulation.init_fn(), scene.run.equilibration, scene.run.chunk)
+    first = simulation.init_fn(**read_initial(scene))
+    start = driver.run(simulation, first, scene.run.equilibration, scene.run.chunk)
     start = simulation.init_observers(simulation.reallocate(start, None))
     with driver.SignalGuard() as guard:
         try:

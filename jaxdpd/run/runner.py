@@ -40,6 +40,7 @@ from jaxdpd.io.checkpoint import (
 )
 from jaxdpd.io.errors import RunFileError
 from jaxdpd.io.h5md import H5MDWriter, box_edges
+from jaxdpd.io.initial import read_initial
 from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
 from jaxdpd.observables import scene_observables, summary_rows
 from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
@@ -399,7 +400,8 @@ def _reference_temperature(scene, averages: dict) -> float | None:
 
 
 def prepare(scene, output_path=None, **options) -> Run:
-    """Build a scene, draw its initial state and create its output file.
+    """Build a scene, draw its initial state (or read it: [initial]) and create its
+    output file.
 
     Args:
         scene: a validated Scene.
@@ -410,7 +412,7 @@ def prepare(scene, output_path=None, **options) -> Run:
         RunFileError: the output file cannot be created.
     """
     simulation = build(scene)
-    state = simulation.init_fn()
+    state = simulation.init_fn(**read_initial(scene))
     path = output_path if output_path is not None else scene.output.path
     writer = H5MDWriter.create(path, scene, simulation.blocks) if path else None
     return Run(simulation, state, writer, EQUILIBRATION, **options)
