@@ -66,9 +66,67 @@ def verdicts(series: dict, block_length: int) -> dict:
     }
 
 
-def summarize(path) -> str:
-    """The summary of the run in `path` as text: a header, the table with units and
-    the blocking verdicts, a plain list of the rows without a plateau, a glossary."""
+@dataclass
+class FileSummary:
+    """The summary of a run file, as `read_summary` computes it.
+
+    Attributes:
+        path, scene: the file and its scene.
+        checkpoint: the checkpoint header, or None.
+        samples: production steps stored (of scene.run.steps).
+        averages: the block sums of the stored series (n_blocks, block_length).
+        rows: name -> (mean, standard error), as the run printed them.
+        references, warnings, extra: as jaxdpd.analysis.summary_table.format_table.
+        checks: row name -> Verdict of each row with a per-step series.
+    """
+
+    path: object
+    scene: object
+    checkpoint: object
+    samples: int
+    averages: RunningBlockAverages
+    rows: dict
+    references: dict
+    warnings: dict
+    extra: dict
+    checks: dict
+
+    def text(self) -> str:
+        """A header, the table with units and verdicts, a plain statement of the rows
+        without a plateau, a glossary."""
+        scene, averages = self.scene, self.averages
+        stored = "" if self.checkpoint is None else f"; checkpoint: {self.checkpoint.reason}"
+        notes = {name: check.note() for name, check in self.checks.items()}
+        lines = [
+            f"{self.path}: {scene.solvent.method} solvent, N = {scene.n_particles}, "
+            f"{self.samples} production steps stored of {scene.run.steps}{stored}",
+            f"errors: {averages.n_blocks} block averages of {averages.block_length} steps; "
+            "verdict: blocking analysis (Flyvbjerg & Petersen 1989; plateau criterion of "
+            "Lee et al., Phys. Rev. E 83, 066706 (2011))",
+            "",
+            format_table(self.rows, self.references, self.warnings, self.extra, notes),
+            "",
+        ]
+        failing = [name for name, check in self.checks.items() if check.plateau is None]
+        short = [name for name, check in self.checks.items() if check.plateau and not check.trusted]
+        if failing:
+            lines.append(
+                f"No blocking plateau was reached for {', '.join(failing)}: the run is too "
+                "short for the correlation time, and those error bars are lower bounds."
+            )
+        if short:
+            lines.append(
+                f"The table's blocks are shorter than the plateau for {', '.join(short)}: "
+                "trust the plateau's standard error given beside them."
+            )
+        if self.checks and not failing and not short:
+            lines.append("Every error bar with a per-step series is past its blocking plateau.")
+        lines += ["", glossary([*self.rows, *self.extra])]
+        return "\n".join(lines)
+
+
+def read_summary(path) -> FileSummary:
+    """The summary of the run in `path`, from its stored series and /averages."""
     record = load(path)
     scene = record.scene
     series = {name: np.asarray(stored.value) for name, stored in record.observables.items()}
@@ -88,37 +146,12 @@ def summarize(path) -> str:
         warnings = {} if message is None else {"temperature": message}
     rdf = record.averages.get("rdf")
     extra = rdf_rows(rdf.r, rdf.g) if rdf is not None and rdf.samples else {}
-    lines = [
-        f"{path}: {scene.solvent.method} solvent, N = {scene.n_particles}, "
-        f"{samples} production steps stored of {scene.run.steps}"
-        + ("" if record.checkpoint is None else f"; checkpoint: {record.checkpoint.reason}"),
-        f"errors: {averages.n_blocks} block averages of {averages.block_length} steps; "
-        "verdict: blocking analysis (Flyvbjerg & Petersen 1989; plateau criterion of "
-        "Lee et al., Phys. Rev. E 83, 066706 (2011))",
-        "",
-        format_table(
-            rows,
-            ideal_chain_references(scene, rows),
-            warnings,
-            extra,
-            {name: check.note() for name, check in checks.items()},
-        ),
-        "",
-    ]
-    failing = [name for name, check in checks.items() if check.plateau is None]
-    short = [name for name, check in checks.items() if check.plateau and not check.trusted]
-    if failing:
-        lines.append(
-            f"No blocking plateau was reached for {', '.join(failing)}: the run is too "
-            "short for the correlation time, and those error bars are lower bounds."
-        )
-    if short:
-        lines.append(
-            f"The table's blocks are shorter than the plateau for {', '.join(short)}: "
-            "trust the plateau's standard error given beside them."
-        )
-    if checks and not failing and not short:
-        lines.append("Every error bar with a per-step series is past its blocking plateau.")
-    lines.append("")
-    lines.append(glossary([*rows, *extra]))
-    return "\n".join(lines)
+    references = ideal_chain_references(scene, rows)
+    return FileSummary(
+        path, scene, record.checkpoint, samples, averages, rows, references, warnings, extra, checks
+    )
+
+
+def summarize(path) -> str:
+    """The summary of the run in `path` as text (`FileSummary.text`)."""
+    return read_summary(path).text()
