@@ -177,4 +177,4 @@ def test_progress_in_a_log_is_plain_lines_with_temperature_and_pressure():
     progress.finish()
     lines = stream.getvalue().splitlines()
     assert "\r" not in stream.getvalue() and len(lines) == 10
-    assert lines[-1].startswith("jaxdpd: step 100/100, T = 1.02, P = 23.7")
+    assert lines[-1].startswith("[jaxdpd] 100/100 steps, T = 1.02, P = 23.7")

@@ -58,7 +58,7 @@ class Progress:
         shown = "".join(f", {label} = {value}" for label, value in values.items())
         elapsed = time.perf_counter() - self.start
         self.stream.write(
-            f"jaxdpd: step {done}/{self.total}{shown} ({elapsed:.0f} s, compilation included)\n"
+            f"[jaxdpd] {done}/{self.total} steps{shown} ({elapsed:.0f} s, compilation included)\n"
         )
         self.stream.flush()
 
