@@ -19,6 +19,7 @@ from jaxdpd.analysis.file_summary import read_summary, verdict
 from jaxdpd.analysis.statistics import blocking_plateau
 from jaxdpd.io import Correlation, RadialDistribution, read_averages
 from jaxdpd.io.h5md import H5MDWriter
+from jaxdpd.run import cli
 from jaxdpd.run.cli import main
 from jaxdpd.run.progress import Progress
 from jaxdpd.validation import SceneError
@@ -178,3 +179,45 @@ def test_progress_in_a_log_is_plain_lines_with_temperature_and_pressure():
     lines = stream.getvalue().splitlines()
     assert "\r" not in stream.getvalue() and len(lines) == 10
     assert lines[-1].startswith("[jaxdpd] 100/100 steps, T = 1.02, P = 23.7")
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_on_a_terminal_is_a_tqdm_bar_started_after_the_first_chunk():
+    """The bar appears at the first chunk's end (its rate leaves out compilation) and
+    shows the latest chunk's T and P."""
+    stream = _Terminal()
+    progress = Progress(100, stream, enabled=True)
+    progress.update(10, {"temperature": np.full(10, 1.5)})
+    assert progress.bar is not None and progress.bar.initial == 10
+    progress.update(20, {"temperature": np.full(10, 1.02), "pressure": np.full(10, 23.7)})
+    progress.finish()
+    assert "20/100" in stream.getvalue() and "T=1.02, P=23.7" in stream.getvalue()
+
+
+def test_demo_without_output_says_where_it_writes(tmp_path, monkeypatch, capsys):
+    """`jaxdpd demo` without -o writes demo.h5md in the current folder and says so
+    before anything is built (here the build is cut short by a Ctrl-C)."""
+    written = []
+
+    def interrupted(scene, path, **options):
+        written.append(path)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "prepare", interrupted)
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo"]) == 130
+    assert written == ["demo.h5md"]
+    assert "jaxdpd: writing demo.h5md (give -o FILE to write elsewhere)" in capsys.readouterr().err
+
+
+def test_the_demo_is_a_groot_warren_fluid_at_lambda_0_65():
+    """One species, no polymers, ρ = 3, a = 25, γ = 4.5, Δt = 0.04, λ = 0.65 (Groot &
+    Warren 1997; λ = 0.5 overheats at this Δt, README time-step table)."""
+    scene = cli.demo_scene()
+    assert scene.polymers == () and len(scene.particles.species) == 1
+    assert (scene.particles.density, scene.solvent.gamma, scene.solvent.kT) == (3.0, 4.5, 1.0)
+    assert (scene.integrator.dt, scene.integrator.lambda_) == (0.04, 0.65)

@@ -2,7 +2,7 @@
 
     jaxdpd run SCENE.toml [-o FILE] [--steps N] [--devices D] [-q] [--overwrite]
     jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
-    jaxdpd demo [-o FILE] [-q] [--overwrite]
+    jaxdpd demo [-o FILE] [-q] [--overwrite]      (writes demo.h5md without -o)
     jaxdpd summary RUN.h5           the summary table with units, glossary, blocking check
     jaxdpd plot RUN.h5 [-o DIR] [--format png|pdf]     figures (needs the `plot` extra)
     jaxdpd --version
@@ -293,7 +293,7 @@ def _reading(command):
 
         try:
             return command(args)
-        except RunFileError as error:
+        except (RunFileError, OSError) as error:
             print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
             return INVALID_INPUT
 
