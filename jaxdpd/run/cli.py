@@ -277,7 +277,11 @@ def _plot(args) -> int:
         return INVALID_INPUT
     from jaxdpd.analysis.plots import plot_run
 
-    written = plot_run(args.file, args.output, args.format)
+    try:
+        written = plot_run(args.file, args.output, args.format)
+    except OSError as error:  # the folder cannot be made or written
+        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+        return INVALID_INPUT
     for path in written:
         print(path)
     if not written:
@@ -293,7 +297,7 @@ def _reading(command):
 
         try:
             return command(args)
-        except (RunFileError, OSError) as error:
+        except RunFileError as error:
             print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
             return INVALID_INPUT
 
