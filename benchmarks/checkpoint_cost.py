@@ -1,9 +1,9 @@
 """Cost of one checkpoint of the demo scene: the output flushed and fsynced, the
 checkpoint file built in memory, written, fsynced and renamed (jaxdpd.io.checkpoint).
 
-The state is the demo's (FENE dumbbells in DPD, float32, on-device chain
-correlators) at --count particles, as drawn by init_fn: a checkpoint's size and cost
-do not depend on the configuration.  Nothing is compiled.
+The state is that of FENE dumbbells in the demo's DPD solvent (float32, on-device
+chain correlators; _common.dumbbell_demo) at --count particles, as drawn by init_fn:
+a checkpoint's size and cost do not depend on the configuration.  Nothing is compiled.
 
 Usage: python benchmarks/checkpoint_cost.py [--count 3000] [--repeats 8]
 Writes benchmarks/results/checkpoint_cost.json.
@@ -14,12 +14,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from _common import print_table, write_json
+from _common import dumbbell_demo, print_table, write_json
 
 from jaxdpd.engine.build import build
 from jaxdpd.io.checkpoint import checkpoint_path
 from jaxdpd.io.h5md import H5MDWriter
-from jaxdpd.run.cli import demo_scene
 
 
 def main() -> None:
@@ -27,7 +26,7 @@ def main() -> None:
     parser.add_argument("--count", type=int, default=3000)
     parser.add_argument("--repeats", type=int, default=8)
     args = parser.parse_args()
-    scene = demo_scene().replace(particles={"count": args.count})
+    scene = dumbbell_demo(args.count)
     simulation = build(scene)
     state = simulation.init_observers(simulation.init_fn())
     with tempfile.TemporaryDirectory(prefix="jaxdpd-checkpoint-") as folder:

@@ -1,6 +1,6 @@
 """Cost of streaming a run to H5MD: the same run with and without an output file.
 
-The demo's solvent and polymers (FENE dumbbells in Groot–Warren DPD, float32), with
+FENE dumbbells in the demo's Groot–Warren DPD solvent (_common.dumbbell_demo), with
 the heaviest output: per-step temperature, pressure tensor and ⟨Q²⟩, g(r), and a
 frame (positions, velocities, images) and a checkpoint at every chunk.  The scene is
 compiled by a warm-up run; then runs without and with a file alternate, and the
@@ -16,9 +16,8 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from _common import peak_rss_mib, print_table, write_json
+from _common import dumbbell_demo, peak_rss_mib, print_table, write_json
 
-from jaxdpd.run.cli import demo_scene
 from jaxdpd.run.runner import simulate
 
 
@@ -29,8 +28,7 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=2)
     args = parser.parse_args()
-    scene = demo_scene().replace(
-        particles={"count": args.count},
+    scene = dumbbell_demo(args.count).replace(
         run={"steps": args.steps, "chunk": args.chunk, "equilibration": 0},
         output={"trajectory_every": args.chunk, "checkpoint_every": args.chunk},
     )

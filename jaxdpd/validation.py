@@ -6,6 +6,7 @@ a value out of range or a missing or unknown key, and a `SceneTypeError` (both a
 `SceneError` and a `TypeError`) for a value of the wrong type.
 """
 
+import difflib
 import math
 import re
 
@@ -60,7 +61,22 @@ def check_keys(section: dict, allowed, path: str) -> None:
             raise SceneTypeError(path, f"keys must be strings, got {key!r}")
     unknown = sorted(set(section) - set(allowed))
     if unknown:
-        raise SceneError(path, f"unknown key(s) {unknown}; valid keys: {sorted(allowed)}")
+        raise SceneError(path, unknown_keys_message(unknown, allowed))
+
+
+def unknown_keys_message(unknown, allowed) -> str:
+    """The error for unknown keys: each with its closest valid key (difflib), e.g.
+    "unknown key(s) 'gama' (did you mean 'gamma'?)"; the valid keys follow only when
+    some unknown key resembles none of them."""
+    valid = sorted(set(allowed))
+    guesses = {key: difflib.get_close_matches(key, valid, n=1) for key in unknown}
+    named = ", ".join(
+        repr(key) + (f" (did you mean {guess[0]!r}?)" if guess else "")
+        for key, guess in guesses.items()
+    )
+    if all(guesses.values()):
+        return f"unknown key(s) {named}"
+    return f"unknown key(s) {named}; valid keys: {valid}"
 
 
 def _field(path: str, key: str) -> str:

@@ -25,7 +25,13 @@ import numpy as np
 
 from jaxdpd.precision import as_array
 
-__all__ = ["block_average", "blocking_analysis", "inverse_variance_mean", "ratio_of_means"]
+__all__ = [
+    "block_average",
+    "blocking_analysis",
+    "blocking_plateau",
+    "inverse_variance_mean",
+    "ratio_of_means",
+]
 
 
 def _check_series(series, axis: int, n_blocks: int | None = None):
@@ -108,6 +114,42 @@ def blocking_analysis(series, axis: int = 0, min_blocks: int = 8):
         x = 0.5 * (x[0::2] + x[1::2])
         length *= 2
     return np.asarray(lengths, dtype=np.int64), jnp.stack(sems)
+
+
+def blocking_plateau(series, min_blocks: int = 8):
+    """The block length at which a scalar series' blocking analysis reaches its plateau.
+
+    The criterion of Lee, Conduit, Nemec, López Ríos & Drummond, Phys. Rev. E 83,
+    066706 (2011), eq. (14): the shortest block length B of `blocking_analysis` with
+
+        B³ > 2 T (s_B / s_1)⁴,
+
+    s_B the standard error at block length B, T the number of samples.  (s_B/s_1)²
+    estimates the statistical inefficiency 2 τ_int; the inequality keeps the bias of
+    blocks of length B (∝ τ_int/B) below the statistical error of the error
+    (∝ sqrt(B/T)).  Blocks of at least that length give a trusted standard error.
+
+    Args:
+      series: (T,) floating-point samples of one quantity.
+      min_blocks: as for `blocking_analysis` (the longest blocks tried leave this many).
+
+    Returns:
+      ``(block_length, sem)`` at the plateau, or ``(None, sem of the longest blocks)``
+      when no block length satisfies the criterion: the series is too short for its
+      correlation time and every error bar from it is a lower bound.
+    """
+    lengths, sems = blocking_analysis(series, min_blocks=min_blocks)
+    sems = np.asarray(sems, np.float64)
+    if sems.ndim != 1:
+        raise ValueError(f"series must be one scalar per sample (T,), got shape {np.shape(series)}")
+    samples = np.shape(series)[0]
+    if sems[0] == 0:  # a constant series: every block length agrees
+        return int(lengths[0]), 0.0
+    reached = lengths.astype(np.float64) ** 3 > 2 * samples * (sems / sems[0]) ** 4
+    if not reached.any():
+        return None, float(sems[-1])
+    first = int(np.argmax(reached))
+    return int(lengths[first]), float(sems[first])
 
 
 def ratio_of_means(numerator, denominator, n_blocks: int = 20, axis: int = 0):

@@ -7,7 +7,7 @@ H5MDWriter                          jaxdpd.io.h5md (layout in its docstring)
 write_tree / read_tree              any pytree to/from an HDF5 group, bit for bit
 load, read_scene, read_state,       jaxdpd.io.reader
 read_observable(s), read_trajectory,
-read_checkpoint
+read_averages, read_checkpoint
 checkpoint_path                     the checkpoint file beside an output file
                                     (jaxdpd.io.checkpoint: why, and its layout)
 export                              frames to GSD, extended XYZ, LAMMPS data
@@ -22,9 +22,12 @@ from jaxdpd.io.errors import OutputError, RunFileError
 from jaxdpd.io.h5md import H5MDWriter
 from jaxdpd.io.pytree_store import read_tree, write_tree
 from jaxdpd.io.reader import (
+    Correlation,
+    RadialDistribution,
     RunRecord,
     Series,
     load,
+    read_averages,
     read_checkpoint,
     read_observable,
     read_observables,
@@ -34,13 +37,16 @@ from jaxdpd.io.reader import (
 )
 
 __all__ = [
+    "Correlation",
     "H5MDWriter",
     "OutputError",
+    "RadialDistribution",
     "RunFileError",
     "RunRecord",
     "Series",
     "checkpoint_path",
     "load",
+    "read_averages",
     "read_checkpoint",
     "read_observable",
     "read_observables",

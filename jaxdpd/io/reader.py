@@ -13,7 +13,7 @@ and restores its state in one call).
 
 import json
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import h5py
@@ -32,6 +32,25 @@ class Series(NamedTuple):
     value: np.ndarray
 
 
+class Correlation(NamedTuple):
+    """A time correlation measured over a production run (/averages/<species>/<name>,
+    e.g. the MSDs g1, g2, g3): lag_time (L,) in τ, value (L,) averaged over the
+    chains (and beads), per_element (L, C[, M]) as measured, NaN at lags not reached."""
+
+    lag_time: np.ndarray
+    value: np.ndarray
+    per_element: np.ndarray
+
+
+class RadialDistribution(NamedTuple):
+    """g(r) averaged over a production run (/averages/rdf): bin centres r (K,) in r_c,
+    g (K,), and the number of frames sampled."""
+
+    r: np.ndarray
+    g: np.ndarray
+    samples: int
+
+
 @dataclass
 class RunRecord:
     """A file loaded back.
@@ -41,11 +60,14 @@ class RunRecord:
         checkpoint: the checkpoint's step, phase and reason (None without one); its
             state is read by `read_state` (or jaxdpd.run.restore).
         observables: name -> Series of every stored observable.
+        averages: what the run measured over its whole production (`read_averages`):
+            "rdf" -> RadialDistribution, "<species>/<name>" -> Correlation.
     """
 
     scene: object
     checkpoint: checkpoint.CheckpointInfo | None
     observables: dict
+    averages: dict = field(default_factory=dict)
 
 
 def scene_of(handle):
@@ -184,15 +206,46 @@ def read_unwrapped_positions(path) -> Series:
     return Series(position.step, position.time, unwrapped)
 
 
+def averages_of(handle) -> dict:
+    """Everything under /averages of an open file (see `read_averages`)."""
+    if "averages" not in handle:
+        return {}
+    found = {}
+
+    def visit(name, item):
+        if not isinstance(item, h5py.Group):
+            return
+        if "lag_time" in item:
+            found[name] = Correlation(
+                item["lag_time"][()], item["value"][()], item["per_element"][()]
+            )
+        elif "g" in item and "r" in item:
+            found[name] = RadialDistribution(
+                item["r"][()], item["g"][()], int(item.attrs.get("samples", 0))
+            )
+
+    handle["averages"].visititems(visit)
+    return found
+
+
+def read_averages(path) -> dict:
+    """What a run measured over its whole production, written at its end: "rdf" ->
+    RadialDistribution (scenes observing "rdf"), "<species>/<g1|g2|g3|...>" ->
+    Correlation (the on-device chain correlators of "dynamics"); {} when none."""
+    with open_run_file(path) as handle:
+        return averages_of(handle)
+
+
 def load(path) -> RunRecord:
-    """Scene, checkpoint header (None when the file has no checkpoint file) and every
-    observable of a file; nothing is built or compiled."""
+    """Scene, checkpoint header (None when the file has no checkpoint file), every
+    observable and every average of a file; nothing is built or compiled."""
     with open_run_file(path) as handle:
         scene = scene_of(handle)
         run_id = handle["parameters"].attrs.get("run_id")
         observables = {
             name: _series(handle[f"observables/{name}"]) for name in time_series_names(handle)
         }
+        averages = averages_of(handle)
     info = None
     if checkpoint.checkpoint_path(path).exists():
         info = checkpoint.read_checkpoint_info(path)
@@ -200,4 +253,4 @@ def load(path) -> RunRecord:
             raise RunFileError(
                 f"{checkpoint.checkpoint_path(path)}: belongs to another run than {path}"
             )
-    return RunRecord(scene, info, observables)
+    return RunRecord(scene, info, observables, averages)

@@ -2,9 +2,12 @@
 
     jaxdpd run SCENE.toml [-o FILE] [--steps N] [--devices D] [-q] [--overwrite]
     jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
-    jaxdpd demo [-o FILE] [-q]
-    jaxdpd export RUN --format gsd|xyz|lammps-data [-o OUT] [--frames SPEC]
+    jaxdpd demo [-o FILE] [-q] [--overwrite]      (writes demo.h5md without -o)
+    jaxdpd summary RUN.h5md         the summary table with units, glossary, blocking check
+    jaxdpd plot RUN.h5md [-o DIR] [--format png|pdf]   figures (needs the `plot` extra)
+    jaxdpd export RUN.h5md --format gsd|xyz|lammps-data [-o OUT] [--frames SPEC]
                   [--atom-style bond|full]
+    jaxdpd --version
 
 Exit status: 0 done; 2 invalid input (scene, file or arguments, including a file to
 restart that is damaged or incomplete; one line on stderr names the problem); 3 the
@@ -15,6 +18,8 @@ when a signal stopped the run, after the chunk in flight, with a checkpoint and 
 command that resumes it.  SIGINT and SIGTERM are handled even when the shell started
 jaxdpd with them ignored (a background job); Ctrl-C before the run starts or after
 it ended exits 130 without a traceback.
+
+JAX and the engine are imported when a subcommand needs them, not for --help.
 """
 
 import argparse
@@ -26,32 +31,33 @@ import time
 from importlib import resources
 from pathlib import Path
 
+from jaxdpd import __version__
 from jaxdpd.decomposition.host_devices import request_host_devices
-from jaxdpd.engine.errors import SimulationError
-from jaxdpd.io.checkpoint import checkpoint_path, read_checkpoint_info
-from jaxdpd.io.errors import OutputError, RunFileError
-from jaxdpd.io.export import export
-from jaxdpd.io.formats import FILE_FORMATS
-from jaxdpd.io.formats.lammps_data import ATOM_STYLES
-from jaxdpd.io.reader import read_scene
-from jaxdpd.run.driver import RunInterrupted
-from jaxdpd.run.runner import prepare, prepare_resume
-from jaxdpd.scene import Scene
 
 DEMO_SCENE = "demo.toml"
+DEMO_OUTPUT = "demo.h5md"  # where `jaxdpd demo` writes without -o
 INVALID_INPUT = 2
 SIMULATION_FAILED = 3
 OUTPUT_FAILED = 4
 FINISHED = "end of run"
 
 
-def demo_scene() -> Scene:
-    """The embedded default scene (jaxdpd/scenes/demo.toml)."""
+def demo_scene():
+    """The embedded default scene (jaxdpd/scenes/demo.toml) as a Scene."""
+    from jaxdpd.scene import Scene
+
     text = resources.files("jaxdpd.scenes").joinpath(DEMO_SCENE).read_text()
     return Scene.from_toml_string(text)
 
 
-def _describe(scene: Scene) -> str:
+def prepare(scene, output_path=None, **options):
+    """jaxdpd.run.runner.prepare, imported when a run is prepared (JAX loads then)."""
+    from jaxdpd.run.runner import prepare as prepare_run
+
+    return prepare_run(scene, output_path, **options)
+
+
+def _describe(scene) -> str:
     s = scene
     return (
         f"{s.solvent.method} solvent, N = {s.n_particles}, ρ = {s.particles.density:.4g}, "
@@ -62,6 +68,9 @@ def _describe(scene: Scene) -> str:
 
 def _refuse_to_clobber(path) -> None:
     """Refuse to overwrite a file that holds a run which can still be resumed."""
+    from jaxdpd.io.checkpoint import read_checkpoint_info
+    from jaxdpd.io.errors import RunFileError
+
     try:
         info = read_checkpoint_info(path)
     except RunFileError:
@@ -76,9 +85,19 @@ def _refuse_to_clobber(path) -> None:
 
 def _prepare(args):
     """(the prepared Run, its output path) from the command line; raises on bad input."""
+    from jaxdpd.io.checkpoint import checkpoint_path
+    from jaxdpd.io.reader import read_scene
+    from jaxdpd.run.runner import prepare_resume
+    from jaxdpd.scene import Scene
+
     options = {"progress": not args.quiet}
     if args.command == "demo":
-        return prepare(demo_scene(), args.output, **options), args.output
+        path = args.output or DEMO_OUTPUT
+        if args.output is None:
+            print(f"jaxdpd: writing {path} (give -o FILE to write elsewhere)", file=sys.stderr)
+        if not args.overwrite:
+            _refuse_to_clobber(path)
+        return prepare(demo_scene(), path, **options), path
     if args.restart is not None:
         if args.scene is not None:
             raise ValueError("give a scene file or --restart FILE, not both")
@@ -112,6 +131,9 @@ def _resume_hint(path) -> str:
 
 def _last_checkpoint(path) -> str:
     """Where a run that stopped on a write failure can be resumed from."""
+    from jaxdpd.io.checkpoint import checkpoint_path, read_checkpoint_info
+    from jaxdpd.io.errors import RunFileError
+
     try:
         info = read_checkpoint_info(path)
     except RunFileError:
@@ -123,6 +145,11 @@ def _last_checkpoint(path) -> str:
 
 
 def _execute(run, path) -> int:
+    from jaxdpd.engine.errors import SimulationError
+    from jaxdpd.io.checkpoint import checkpoint_path
+    from jaxdpd.io.errors import OutputError
+    from jaxdpd.run.driver import RunInterrupted
+
     print(f"jaxdpd: {_describe(run.scene)}", file=sys.stderr)
     start = time.perf_counter()
     try:
@@ -155,6 +182,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="jaxdpd", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
+    parser.add_argument("--version", action="version", version=f"jaxdpd {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     run = commands.add_parser("run", help="run a scene file, or continue a run")
     run.add_argument("scene", nargs="?", help="scene TOML file")
@@ -177,11 +205,18 @@ def main(argv=None) -> int:
         help="overwrite an output file holding an unfinished run",
     )
     run.add_argument("--author", help="author name in the H5MD file (overrides output.author)")
-    _add_export(commands)
     demo = commands.add_parser("demo", help="run the embedded default scene")
-    demo.add_argument("-o", "--output", help="H5MD output file")
+    demo.add_argument("-o", "--output", help=f"H5MD output file (default {DEMO_OUTPUT})")
     demo.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    demo.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="overwrite an output file holding an unfinished run",
+    )
+    add_file_commands(commands)
     args = parser.parse_args(argv)
+    if args.command in FILE_COMMANDS:
+        return FILE_COMMANDS[args.command](args)
     ignored = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     if ignored:
         # Started in the background: kill -INT should still stop the run (at start-up
@@ -203,43 +238,10 @@ def main(argv=None) -> int:
             signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _add_export(commands) -> None:
-    export = commands.add_parser(
-        "export", help="write a run's frames as GSD, extended XYZ or a LAMMPS data file"
-    )
-    export.add_argument("run_file", metavar="RUN", help="H5MD file of a run (with frames)")
-    export.add_argument("--format", required=True, choices=FILE_FORMATS.names())
-    export.add_argument(
-        "-o", "--output", help="file to write (default: RUN with the format's extension)"
-    )
-    export.add_argument(
-        "--frames",
-        metavar="SPEC",
-        help="all, last, an index or a slice start:stop:step (default: all; last for lammps-data)",
-    )
-    export.add_argument(
-        "--atom-style", choices=ATOM_STYLES, default="bond", help="of a LAMMPS data file"
-    )
-
-
-def _export(args) -> int:
-    """`jaxdpd export`: the exit status."""
-    module = FILE_FORMATS.get(args.format)
-    output = args.output or str(Path(args.run_file).with_suffix(module.extensions[0]))
-    options = {name: getattr(args, name) for name in module.write_options}
-    try:
-        count = export(args.run_file, output, args.format, args.frames, **options)
-    except (ValueError, OSError, ImportError) as error:
-        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
-        return INVALID_INPUT
-    print(f"{count} frame(s) of {args.run_file} written to {output} ({args.format})")
-    return 0
-
-
 def _run(args) -> int:
     """Prepare and execute the command; the exit status."""
-    if args.command == "export":
-        return _export(args)
+    from jaxdpd.io.errors import OutputError
+
     try:
         prepared, path = _prepare(args)
     except (ValueError, TypeError, OSError) as error:
@@ -249,6 +251,103 @@ def _run(args) -> int:
         print(f"jaxdpd: output failed: {error}", file=sys.stderr)
         return OUTPUT_FAILED
     return _execute(prepared, path)
+
+
+# -- commands that read a run file -----------------------------------------------------
+def add_file_commands(commands) -> None:
+    """The subcommands that read a finished (or interrupted) run: summary, plot, export."""
+    summary = commands.add_parser(
+        "summary", help="print a run file's summary table with units, glossary and error check"
+    )
+    summary.add_argument("file", help="H5MD file written by jaxdpd")
+    plot = commands.add_parser("plot", help="draw a run file's figures (PNG or PDF)")
+    plot.add_argument("file", help="H5MD file written by jaxdpd")
+    plot.add_argument(
+        "-o", "--output", metavar="DIR", help="folder for the figures (default: the file's)"
+    )
+    plot.add_argument("--format", choices=("png", "pdf"), default="png", help="figure format")
+    export = commands.add_parser(
+        "export", help="write a run's frames as GSD, extended XYZ or a LAMMPS data file"
+    )
+    export.add_argument("file", metavar="RUN", help="H5MD file of a run (with frames)")
+    # Formats and atom styles are checked by the format modules, which --help need not load.
+    export.add_argument("--format", required=True, help="gsd, xyz or lammps-data")
+    export.add_argument(
+        "-o", "--output", help="file to write (default: RUN with the format's extension)"
+    )
+    export.add_argument(
+        "--frames",
+        metavar="SPEC",
+        help="all, last, an index or a slice start:stop:step (default: all; last for lammps-data)",
+    )
+    export.add_argument(
+        "--atom-style", default="bond", help="of a LAMMPS data file: bond (default) or full"
+    )
+
+
+def _summary(args) -> int:
+    from jaxdpd.analysis.file_summary import summarize
+
+    print(summarize(args.file))
+    return 0
+
+
+def _plot(args) -> int:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        print("jaxdpd: plot needs matplotlib: pip install 'jaxdpd[plot]'", file=sys.stderr)
+        return INVALID_INPUT
+    from jaxdpd.analysis.plots import plot_run
+
+    try:
+        written = plot_run(args.file, args.output, args.format)
+    except OSError as error:  # the folder cannot be made or written
+        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+        return INVALID_INPUT
+    for path in written:
+        print(path)
+    if not written:
+        print(f"jaxdpd: {args.file} holds nothing to plot", file=sys.stderr)
+    return 0
+
+
+def _export(args) -> int:
+    from jaxdpd.io.export import export
+    from jaxdpd.io.formats import FILE_FORMATS
+
+    try:
+        module = FILE_FORMATS.get(args.format)
+        output = args.output or str(Path(args.file).with_suffix(module.extensions[0]))
+        options = {name: getattr(args, name) for name in module.write_options}
+        count = export(args.file, output, args.format, args.frames, **options)
+    except (ValueError, OSError, ImportError) as error:
+        print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+        return INVALID_INPUT
+    print(f"{count} frame(s) of {args.file} written to {output} ({args.format})")
+    return 0
+
+
+def _reading(command):
+    """`command(args)` with a file that cannot be read reported as invalid input."""
+
+    def run(args) -> int:
+        from jaxdpd.io.errors import RunFileError
+
+        try:
+            return command(args)
+        except RunFileError as error:
+            print(f"jaxdpd: invalid input: {error}", file=sys.stderr)
+            return INVALID_INPUT
+
+    return run
+
+
+FILE_COMMANDS = {
+    "summary": _reading(_summary),
+    "plot": _reading(_plot),
+    "export": _reading(_export),
+}
 
 
 if __name__ == "__main__":

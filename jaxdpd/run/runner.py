@@ -29,7 +29,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from jaxdpd.analysis.run_summary import ideal_chain_references, table_rows
 from jaxdpd.analysis.running_averages import RunningBlockAverages
+from jaxdpd.analysis.summary_table import format_table, rdf_rows
 from jaxdpd.analysis.temperature_check import temperature_warning
 from jaxdpd.engine.build import build
 from jaxdpd.io.checkpoint import (
@@ -42,15 +44,12 @@ from jaxdpd.io.errors import RunFileError
 from jaxdpd.io.h5md import H5MDWriter, box_edges
 from jaxdpd.io.initial import read_initial
 from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
-from jaxdpd.observables import scene_observables, summary_rows
-from jaxdpd.observables.chain_correlators import center_of_mass_diffusion, chain_correlations
-from jaxdpd.observables.chain_series import ideal_references
+from jaxdpd.observables import scene_observables
+from jaxdpd.observables.chain_correlators import chain_correlations
 from jaxdpd.run import driver
+from jaxdpd.run.progress import Progress
 from jaxdpd.run.restore import restore
 from jaxdpd.scene import Scene
-
-# Components of the pressure tensor reported in the summary table.
-TENSOR_COMPONENTS = ((0, 1, "P_xy"), (1, 0, "P_yx"), (0, 0, "P_xx"), (2, 2, "P_zz"))
 
 
 @dataclass
@@ -88,62 +87,13 @@ class RunSummary:
     warnings: dict = field(default_factory=dict)
 
     def table(self) -> str:
-        """Mean ± standard error (20 block averages) of each scalar series; a row that
-        failed a sanity check is marked "<- WARNING" and its warning follows the table."""
-        rows = [f"{'observable':<30}{'mean':>14}{'± s.e.':>12}{'ideal chain':>14}"]
-        for name, (mean, error) in self.averages.items():
-            reference = self.references.get(name)
-            ideal = f"{reference:>14.6g}" if reference is not None else ""
-            mark = "  <- WARNING" if name in self.warnings else ""
-            rows.append(f"{name:<30}{mean:>14.6g}{error:>12.2g}{ideal}{mark}")
-        rows.append(f"{'particle-steps/s':<30}{self.steady_rate:>14.4g}{'(compiled)':>12}")
+        """Mean ± standard error (20 block averages) and unit of each row
+        (jaxdpd.analysis.summary_table); a row that failed a sanity check is marked
+        "<- WARNING" and its warning follows the table."""
+        extra = {"particle-steps/s": (self.steady_rate, "(compiled)")}
         if self.rdf is not None:
-            r, g = self.rdf
-            peak = int(np.nanargmax(g))
-            rows.append(f"{'g(r) first peak at r':<30}{r[peak]:>14.4g}")
-            rows.append(f"{'g(r) first peak height':<30}{g[peak]:>14.4g}")
-        rows.extend(f"WARNING: {message}" for message in self.warnings.values())
-        return "\n".join(rows)
-
-
-def _summary_averages(averages: RunningBlockAverages) -> dict:
-    """Table rows: every scalar series, and components of the pressure tensor."""
-    rows = {}
-    for name in averages.names:
-        mean, error = averages.result(name)
-        if mean.ndim == 0:
-            rows[name] = (float(mean), float(error))
-        elif name == "pressure_tensor":
-            for a, b, label in TENSOR_COMPONENTS:
-                rows[label] = (float(mean[a, b]), float(error[a, b]))
-    return rows
-
-
-class _Progress:
-    """A one-line progress bar with steps/s and ETA on a stream."""
-
-    def __init__(self, total: int, stream, enabled: bool):
-        self.total, self.stream, self.enabled = total, stream, enabled
-        self.start = time.perf_counter()
-
-    def update(self, done: int) -> None:
-        if not self.enabled:
-            return
-        elapsed = time.perf_counter() - self.start
-        rate = done / elapsed if elapsed > 0 else 0.0
-        eta = (self.total - done) / rate if rate > 0 else float("inf")
-        width = 30
-        filled = int(width * done / max(1, self.total))
-        bar = "#" * filled + "-" * (width - filled)
-        self.stream.write(
-            f"\r[{bar}] {done}/{self.total} steps  {rate:8.1f} steps/s  ETA {eta:6.1f} s"
-        )
-        self.stream.flush()
-
-    def finish(self) -> None:
-        if self.enabled:
-            self.stream.write("\n")
-            self.stream.flush()
+            extra |= rdf_rows(*self.rdf)
+        return format_table(self.averages, self.references, self.warnings, extra)
 
 
 class Run:
@@ -252,7 +202,7 @@ class Run:
 
     def _on_equilibration_chunk(self, result: driver.ChunkResult) -> None:
         self._periodic_checkpoint(result.state, 0)
-        self.bar.update(int(result.state.step) - self.start_step)
+        self.bar.update(int(result.state.step) - self.start_step, result.series)
 
     def _on_production_chunk(self, result: driver.ChunkResult) -> None:
         scene, state = self.scene, result.state
@@ -273,7 +223,7 @@ class Run:
                 self.writer.append_frame(state, box_edges(bound_box))
             self._periodic_checkpoint(state, start)
             self.writer.flush()
-        self.bar.update(step - self.start_step)
+        self.bar.update(step - self.start_step, result.series)
         if self.user_hook is not None:
             self.user_hook(result)
 
@@ -308,7 +258,7 @@ class Run:
         end = equilibration + scene.run.steps
         self.start_step = int(state.step)
         self.last_checkpoint = time.monotonic()  # wall clock of the latest checkpoint
-        self.bar = _Progress(end - self.start_step, self.stream, self.progress)
+        self.bar = Progress(end - self.start_step, self.stream, self.progress)
         guard = driver.SignalGuard() if self.handle_signals else contextlib.nullcontext()
         self.should_stop = guard if self.handle_signals else None
         wall = 0.0
@@ -375,28 +325,10 @@ class Run:
         if len(self.chunk_ends) == 2 and self.chunk_ends[1][1] > self.chunk_ends[0][1]:
             (t0, s0), (t1, s1) = self.chunk_ends
             summary.steady_rate = scene.n_particles * (s1 - s0) / (t1 - t0)
-        # Under shear g3 holds the flow's dispersion along x: no D_CM from its slope.
-        diffusion = center_of_mass_diffusion(correlations) if scene.flow is None else {}
-        summary.averages = (
-            _summary_averages(self.averages)
-            | diffusion
-            | summary_rows(scene, self.averages.block_means(), self.averages.n_blocks)
-        )
-        kT = _reference_temperature(scene, summary.averages)
-        if kT is not None:
-            summary.references = ideal_references(self.simulation.blocks, kT)
+        summary.averages = table_rows(scene, self.averages, correlations)
+        summary.references = ideal_chain_references(scene, summary.averages)
         summary.series = {name: np.concatenate(parts) for name, parts in self.series.items()}
         return summary
-
-
-def _reference_temperature(scene, averages: dict) -> float | None:
-    """k_BT of the ideal-chain references: the solvent's set temperature, or for a
-    Hoogerbrugge–Koelman fluid, which sets none (its solvent.kT is only the starting
-    value), the measured mean kinetic temperature (None when it was not measured)."""
-    if scene.solvent_component.sets_temperature:
-        return scene.solvent.kT
-    measured = averages.get("temperature")
-    return None if measured is None else measured[0]
 
 
 def prepare(scene, output_path=None, **options) -> Run:
