@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import jax
+import jax.numpy as jnp
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -35,6 +36,17 @@ def timed(function, *args):
     result = function(*args)
     jax.block_until_ready(result)
     return result, time.perf_counter() - start
+
+
+def copy_bandwidth(shape, dtype, steps: int) -> float:
+    """Bytes/s of a jitted read-modify-write pass (`x + 1`, read + write) over an array
+    of `shape`, repeated `steps` times in a scan: the memory bandwidth a one-pass
+    kernel over that much data can reach here, measured in the caller's process."""
+    x = jnp.zeros(shape, dtype)
+    run = jax.jit(lambda x: jax.lax.scan(lambda c, _: (c + 1, None), x, None, length=steps)[0])
+    run(x).block_until_ready()
+    _, seconds = timed(run, x)
+    return 2 * x.size * x.dtype.itemsize * steps / seconds
 
 
 def best_of(function, repeats: int) -> float:

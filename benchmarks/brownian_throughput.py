@@ -5,7 +5,10 @@
    against a plain NumPy implementation of the same scheme (same predictor, corrector
    and cubic root; NumPy's own generators) timed in the same run; both with Gaussian
    and with three-point increments.  JAX timings exclude compilation (reported
-   separately); each figure is the best of ``--repeats`` runs.
+   separately); each figure is the best of ``--repeats`` runs.  Beside it, the
+   fraction of the memory bound: a step must read and write each connector (6
+   float64 values), and the copy bandwidth B of that much data is measured in the
+   same run (benchmarks/_common.copy_bandwidth): bound = B / 48 dumbbell-steps/s.
 2. Memory of the reverse-mode pathwise gradient d<f Q_x Q_y>/db against trajectory
    length, with and without ``jax.checkpoint`` (segments of sqrt(n) steps): XLA's
    compiled temporary-buffer size (``compiled.memory_analysis()``), and the measured
@@ -30,7 +33,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from _common import best_of
+from _common import best_of, copy_bandwidth
 
 import jaxdpd
 from jaxdpd.brownian import (
@@ -123,7 +126,8 @@ def throughput(sizes, repeats, budget):
     for n in sizes:
         n_steps = int(max(10, min(5000, budget / n)))
         q0 = 0.5 * np.random.default_rng(0).standard_normal((n, 3))
-        row = {"n_dumbbells": n, "n_steps": n_steps}
+        bandwidth = copy_bandwidth((n, 3), jnp.float64, n_steps)
+        row = {"n_dumbbells": n, "n_steps": n_steps, "bound_steps_per_s": bandwidth / 48}
         for noise in ("gaussian", "three_point"):
             run = jax_runner(n, n_steps, noise)
             key, q0j = jax.random.key(1), jnp.asarray(q0)
@@ -138,13 +142,14 @@ def throughput(sizes, repeats, budget):
                 "numpy_steps_per_s": n * n_steps / t_np,
                 "ratio": t_np / t_jax,
                 "jax_first_call_s": compile_s,
+                "fraction_of_bound": n * n_steps / t_jax / row["bound_steps_per_s"],
             }
         rows.append(row)
         g, t = row["gaussian"], row["three_point"]
         print(
             f"{n:>9d} {n_steps:>6d} | {g['jax_steps_per_s']:9.3g} {g['numpy_steps_per_s']:9.3g} "
             f"{g['ratio']:6.2f} | {t['jax_steps_per_s']:9.3g} {t['numpy_steps_per_s']:9.3g} "
-            f"{t['ratio']:6.2f}",
+            f"{t['ratio']:6.2f} | {g['fraction_of_bound']:8.2%} {t['fraction_of_bound']:8.2%}",
             flush=True,
         )
     return rows
@@ -216,7 +221,7 @@ def main():
     print(
         f"{'dumbbells':>9} {'steps':>6} | {'gaussian':^26} | {'three-point':^26}\n"
         f"{'':>9} {'':>6} | {'jax':>9} {'numpy':>9} {'ratio':>6} | "
-        f"{'jax':>9} {'numpy':>9} {'ratio':>6}"
+        f"{'jax':>9} {'numpy':>9} {'ratio':>6} | fraction of memory bound"
     )
     rows = throughput(sizes, args.repeats, budget)
 

@@ -27,7 +27,7 @@ from importlib import resources
 import jax
 import jax.numpy as jnp
 import numpy as np
-from _common import print_table, timed, write_json
+from _common import copy_bandwidth, print_table, timed, write_json
 
 import jaxdpd
 from jaxdpd.engine.build import build
@@ -42,15 +42,6 @@ from jaxdpd.solvents.lattice_boltzmann.fluid import (
 
 VALUES_PER_UPDATE = 19 + 19 + 3 + 3
 CHAIN_SCENE = resources.files("jaxdpd.scenes").joinpath("lb_chain.toml")
-
-
-def copy_bandwidth(shape, dtype, steps: int) -> float:
-    """Bytes/s of a jitted read-modify-write pass over an array of `shape`."""
-    x = jnp.zeros(shape, dtype)
-    run = jax.jit(lambda x: jax.lax.scan(lambda c, _: (c + 1, None), x, None, length=steps)[0])
-    run(x).block_until_ready()
-    _, seconds = timed(run, x)
-    return 2 * x.size * x.dtype.itemsize * steps / seconds
 
 
 def lattice_rate(n: int, precision: str, noise: str, steps: int) -> dict:

@@ -5,6 +5,11 @@ one step = ballistic streaming over h + one SRD collision with a random grid shi
 (the scene's step, built by jaxdpd.engine.build.build, with the temperature observed).
 The rate is measured over whole jitted chunks after a compiling one.
 
+The bound: a step must at least read and write every particle's position and
+velocity, 12 values; the copy bandwidth B of that much data is measured in the same
+run (benchmarks/_common.copy_bandwidth), so bound = B / (12 · bytes per value)
+particle-collisions/s and the fraction of it reached is printed beside the rate.
+
 A plain NumPy implementation of the same step (streaming, shift, binning, per-cell
 sums by np.bincount, random axes, Rodrigues rotation) runs in the same process on
 the same configuration, alternating with jaxdpd, so that the ratio is meaningful on
@@ -22,13 +27,14 @@ import time
 
 import jax
 import numpy as np
-from _common import peak_rss_mib, print_table, timed, write_json
+from _common import copy_bandwidth, peak_rss_mib, print_table, timed, write_json
 
 from jaxdpd.engine.build import build
 from jaxdpd.run import driver
 from jaxdpd.scene import Scene
 
 DENSITY, ANGLE, COLLISION_TIME = 10.0, 130.0, 0.1
+VALUES_PER_UPDATE = 12  # positions and velocities, read and written
 
 
 def solvent_scene(n: int, precision: str) -> Scene:
@@ -102,6 +108,8 @@ def measure(n: int, precision: str, steps: int) -> list[dict]:
     temperature = float(np.trace(np.asarray(samples["kinetic"])[-1]) / (3 * (count - 1)))
     jax_rate = count * steps / min(jax_seconds)
     numpy_rate = count * steps / min(numpy_seconds)
+    bandwidth = copy_bandwidth((count, 6), dtype, steps)
+    bound = bandwidth / (VALUES_PER_UPDATE * dtype.itemsize)
     return [
         {
             "code": "jaxdpd",
@@ -109,6 +117,9 @@ def measure(n: int, precision: str, steps: int) -> list[dict]:
             "precision": precision,
             "particle_collisions_per_s": jax_rate,
             "ratio_to_numpy": jax_rate / numpy_rate,
+            "copy_GB_per_s": bandwidth / 1e9,
+            "bound_per_s": bound,
+            "fraction_of_bound": jax_rate / bound,
             "compile_s": compile_seconds,
             "temperature": temperature,
             "peak_rss_mib": peak_rss_mib(),
@@ -137,7 +148,7 @@ def main() -> None:
         for row in measure(n, precision, args.steps)
     ]
     columns = ["code", "N", "precision", "particle_collisions_per_s", "ratio_to_numpy"]
-    print_table(columns + ["compile_s", "temperature"], rows)
+    print_table(columns + ["fraction_of_bound", "compile_s", "temperature"], rows)
     path = write_json(
         "mpcd_throughput",
         {

@@ -135,8 +135,9 @@ def modes(populations):
 
 
 def populations_from_modes(mode_values):
-    """f = E⁻¹ m over the leading axis: (19, ...) → (19, ...)."""
-    inverse = jnp.asarray(INVERSE_MODE_BASIS, mode_values.dtype)
+    """f = E⁻¹ m over the leading axis: (K, ...) → (19, ...), the modes beyond the
+    K given (K ≤ 19) taken as zero (a deterministic collision leaves the ghosts zero)."""
+    inverse = jnp.asarray(INVERSE_MODE_BASIS[:, : len(mode_values)], mode_values.dtype)
     return jnp.einsum("ik,k...->i...", inverse, mode_values)
 
 
@@ -251,11 +252,13 @@ def lattice_update(
             + stress_gammas * (m[4:10] - equilibrium)
             + (1 + stress_gammas) * stress_modes(velocity, impulse)
         )
-        relaxed = [m[:1], momentum + impulse, stress, jnp.zeros_like(m[10:])]
-        relaxed = jnp.concatenate(relaxed)
+        relaxed = [m[:1], momentum + impulse, stress]
         if thermal:
+            relaxed = jnp.concatenate([*relaxed, jnp.zeros_like(m[10:])])
             xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape(m[4:].shape)
             relaxed = relaxed.at[4:].add(amplitudes * xi)
+        else:  # the ghosts relax to zero: transform back the 10 hydrodynamic modes only
+            relaxed = jnp.concatenate(relaxed)
         if sheared_stream is None:
             streamed = stream(populations_from_modes(relaxed))
         else:
