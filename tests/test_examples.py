@@ -61,10 +61,7 @@ def test_example_builds(path):
 
 @pytest.mark.parametrize(
     "path",
-    [
-        pytest.param(p, marks=() if p.stem in DEFAULT_RUN else pytest.mark.slow)
-        for p in EXAMPLES
-    ],
+    [pytest.param(p, marks=() if p.stem in DEFAULT_RUN else pytest.mark.slow) for p in EXAMPLES],
     ids=lambda p: p.stem,
 )
 def test_example_runs_a_few_steps(path, tmp_path):
