@@ -30,9 +30,6 @@ DEFAULTED_SECTIONS = {
 }
 
 
-NOT_STORED = object()
-
-
 def _first_paragraph(obj) -> str:
     doc = inspect.getdoc(obj) or ""
     return " ".join(doc.split("\n\n")[0].split())
@@ -45,8 +42,6 @@ def _cell(text) -> str:
 def _value(value) -> str:
     if value is dataclasses.MISSING:
         return "required"
-    if value is NOT_STORED:
-        return "optional, checked and not stored (see above)"
     if callable(value):
         return "computed"
     return f"`{value!r}`"
@@ -74,11 +69,34 @@ def _table(header: tuple[str, ...], rows) -> list[str]:
     return out + [""]
 
 
+def solvent_default(method, section: dict, name: str) -> str:
+    """A solvent field's default as the method's own reader gives it: read the example
+    section without the field ("required" when the reader refuses that), then once more
+    with every other number scaled, to tell a fixed default from one derived from the
+    other fields."""
+    trimmed = {key: value for key, value in section.items() if key != name}
+    try:
+        resolved = method.to_dict(method.read(trimmed))
+    except (ValueError, TypeError):
+        return "required"
+    if name not in resolved:
+        return "optional (see the description)"
+    scaled = {
+        key: value * 1.25 if isinstance(value, float) else value for key, value in trimmed.items()
+    }
+    try:
+        fixed = method.to_dict(method.read(scaled)).get(name) == resolved[name]
+    except (ValueError, TypeError):
+        fixed = False
+    return _value(resolved[name]) if fixed else "derived from other fields (see the description)"
+
+
 def solvent_section(method) -> list[str]:
+    section = method.example_scene("float32")["solvent"]
     parameters = Scene.from_dict(method.example_scene("float32")).solvent
-    defaults = {f.name: f.default for f in dataclasses.fields(parameters)}
+    own = ("kT",) if method.sets_temperature else ()  # solvent.kT: a set temperature
     rows = [
-        (f"`{name}`", _value(defaults.get(name, NOT_STORED))) for name in ("kT", *method.fields)
+        (f"`{name}`", solvent_default(method, section, name)) for name in (*own, *method.fields)
     ]
     lambda_note = "yes" if method.integrator_lambda else "no"
     unavailable = ", ".join(f"`{k}` ({v})" for k, v in method.unavailable_observables.items())
