@@ -9,12 +9,15 @@
 
 import importlib.util
 import os
+import sys
 from pathlib import Path
 
 from mkdocs.plugins import event_priority
 from mkdocs.structure.files import File
 
 ROOT = Path(__file__).resolve().parent.parent
+# Document the checkout being built, whatever jaxdpd the environment has installed.
+sys.path.insert(0, os.fspath(ROOT))
 
 
 def _load(name: str):
