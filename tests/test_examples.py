@@ -67,9 +67,9 @@ def test_example_builds(path):
 )
 def test_example_runs_a_few_steps(path, tmp_path):
     scene = shortened(Scene.from_toml(path))
-    output = tmp_path / "run.h5"
+    output = tmp_path / "run.h5md"
     summary = simulate(scene, output, progress=False)
     temperature, _ = summary.averages["temperature"]
     assert math.isfinite(temperature) and temperature > 0, path.name
     with h5py.File(output, "r") as handle:
-        assert handle["particles/all/position/value"].shape[0] == 1, path.name
+        assert handle["particles/trajectory/position/value"].shape[0] == 1, path.name
