@@ -314,10 +314,10 @@ def _plot(args) -> int:
 
 def _export(args) -> int:
     from jaxdpd.io.export import export
-    from jaxdpd.io.formats import FILE_FORMATS
+    from jaxdpd.io.formats import format_of
 
     try:
-        module = FILE_FORMATS.get(args.format)
+        module = format_of(args.file, args.format, field="--format")
         output = args.output or str(Path(args.file).with_suffix(module.extensions[0]))
         options = {name: getattr(args, name) for name in module.write_options}
         count = export(args.file, output, args.format, args.frames, **options)
