@@ -45,7 +45,7 @@ def examples_page() -> str:
         "supports and one per system of the physics sources. Run one with",
         "",
         "```bash",
-        "jaxdpd run examples/dpd_fluid.toml -o dpd_fluid.h5",
+        "jaxdpd run examples/dpd_fluid.toml -o dpd_fluid.h5md",
         "```",
         "",
         "(`--steps N` shortens a run). Each is run for a few steps by "

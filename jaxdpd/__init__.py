@@ -3,9 +3,9 @@
 Units are reduced DPD units (r_c = m = k_BT = 1) unless a scene says otherwise.
 
     scene = jaxdpd.Scene.from_toml("scene.toml")      # declarative, validated
-    simulation = jaxdpd.build(scene)                  # init_fn, step_fn (jitted)
+    simulation = jaxdpd.build(scene)                  # init_fn, step_fn (pure, jittable)
     state, observables = jaxdpd.simulate(scene, 1000) # build, init, run in chunks
-    record = jaxdpd.load("run.h5")                    # a run file, nothing compiled
+    record = jaxdpd.load("run.h5md")                  # a run file, nothing compiled
 
 Importing jaxdpd is cheap and leaves JAX alone: these names are imported on first
 use (PEP 562), and JAX with them.  Building a scene switches on JAX's 64-bit types,

@@ -271,3 +271,6 @@ def test_bad_positions_and_a_run_without_frames_are_refused_clearly(tmp_path, ca
     H5MDWriter.create(empty, scene).close()  # no frames written
     assert main(["export", str(empty), "--format", "xyz"]) == 2
     assert "holds no frames to export" in capsys.readouterr().err
+    # A misspelt format names the option, not the scene's initial.format.
+    assert main(["export", str(empty), "--format", "lamps-data"]) == 2
+    assert "invalid input: --format: 'lamps-data'" in capsys.readouterr().err

@@ -86,10 +86,13 @@ def format_table(
     references, warnings = references or {}, warnings or {}
     extra, notes = extra or {}, notes or {}
     width = max(len(name) for name in ["observable", *rows, *extra]) + 2
-    lines = [f"{'observable':<{width}}{'mean':>14}{'± s.e.':>12}  {'unit':<14}{'ideal chain':>12}"]
+    # The ideal-chain column only when some row has a reference (a polymer run).
+    column = 12 if references else 0
+    header = f"{'observable':<{width}}{'mean':>14}{'± s.e.':>12}  {'unit':<14}"
+    lines = [(header + (f"{'ideal chain':>12}" if references else "")).rstrip()]
     for name, (mean, error) in rows.items():
         reference = references.get(name)
-        ideal = f"{reference:>12.6g}" if reference is not None else " " * 12
+        ideal = f"{reference:>12.6g}" if reference is not None else " " * column
         note = f"  {notes[name]}" if name in notes else ""
         mark = "  <- WARNING" if name in warnings else ""
         line = f"{name:<{width}}{mean:>14.6g}{error:>12.2g}  {row_unit(name):<14}{ideal}{note}"

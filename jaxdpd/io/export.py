@@ -52,7 +52,8 @@ def read_configurations(path, frames: str = "all") -> tuple[list[Configuration],
         group = particle_group(handle)
         if f"{group}/position" not in handle:
             raise RunFileError(
-                f"{path}: holds no frames to export (the run had output.trajectory_every = 0)"
+                f"{path}: holds no frames to export (the run had output.trajectory_every = 0; "
+                "set it in the scene's [output], e.g. to a multiple of run.chunk, and run again)"
             )
         particles = handle[group]
         indices = select_frames(frames, len(particles["position/step"]))

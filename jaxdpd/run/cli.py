@@ -1,4 +1,4 @@
-"""Command line.
+"""jaxdpd: simulations of polymer solutions in mesoscale solvents, from scene files.
 
     jaxdpd run SCENE.toml [-o FILE] [--steps N] [--devices D] [-q] [--overwrite]
     jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
@@ -18,9 +18,9 @@ when a signal stopped the run, after the chunk in flight, with a checkpoint and 
 command that resumes it.  SIGINT and SIGTERM are handled even when the shell started
 jaxdpd with them ignored (a background job); Ctrl-C before the run starts or after
 it ended exits 130 without a traceback.
-
-JAX and the engine are imported when a subcommand needs them, not for --help.
 """
+
+# JAX and the engine are imported when a subcommand needs them, not for --help.
 
 import argparse
 import shlex
@@ -314,10 +314,10 @@ def _plot(args) -> int:
 
 def _export(args) -> int:
     from jaxdpd.io.export import export
-    from jaxdpd.io.formats import FILE_FORMATS
+    from jaxdpd.io.formats import format_of
 
     try:
-        module = FILE_FORMATS.get(args.format)
+        module = format_of(args.file, args.format, field="--format")
         output = args.output or str(Path(args.file).with_suffix(module.extensions[0]))
         options = {name: getattr(args, name) for name in module.write_options}
         count = export(args.file, output, args.format, args.frames, **options)

@@ -90,7 +90,9 @@ class RunSummary:
         """Mean ± standard error (20 block averages) and unit of each row
         (jaxdpd.analysis.summary_table); a row that failed a sanity check is marked
         "<- WARNING" and its warning follows the table."""
-        extra = {"particle-steps/s": (self.steady_rate, "(compiled)")}
+        extra = {}
+        if not np.isnan(self.steady_rate):  # NaN: a single chunk, all compilation
+            extra["particle-steps/s"] = (self.steady_rate, "(compiled)")
         if self.rdf is not None:
             extra |= rdf_rows(*self.rdf)
         return format_table(self.averages, self.references, self.warnings, extra)

@@ -11,7 +11,8 @@ from pathlib import Path
 
 from jaxdpd.io.formats import gsd, lammps_data, xyz
 from jaxdpd.io.formats.configuration import Configuration
-from jaxdpd.registry import Registry
+from jaxdpd.registry import Registry, unknown_name_message
+from jaxdpd.validation import SceneError
 
 FILE_FORMATS = Registry("configuration file format", "initial.format")
 for _module in (gsd, xyz, lammps_data):
@@ -25,7 +26,10 @@ def format_of(path, name: str | None = None, field: str = "initial.format"):
         ValueError: neither names a format (the message starts with `field`).
     """
     if name is not None:
-        return FILE_FORMATS.get(name)
+        try:
+            return FILE_FORMATS.get(name)
+        except SceneError:  # the registry names initial.format; say which field erred
+            raise SceneError(field, unknown_name_message(name, FILE_FORMATS.names())) from None
     suffix = Path(path).suffix.lower()
     for module in FILE_FORMATS:
         if suffix in module.extensions:
