@@ -39,7 +39,7 @@ from jaxdpd.validation import read_number
 
 # Default initial_kT of a Hoogerbrugge–Koelman scene: the kinetic temperature its
 # default fluid reaches by itself (Π0 = 1/3, ω = 4/3, Δ = 1/3, n = 3, δt = 1:
-# 0.00161 ± 0.000002, benchmarks/accuracy_cost.py, README accuracy table).  Starting
+# 0.00161 ± 0.000002, benchmarks/accuracy_cost.py, docs/validation/accuracy_cost.md).  Starting
 # there instead of at 1 matters for chains: a Hookean spring placed for k_BT = 1
 # (√(3/K) ≈ 22 r_c at K = 0.006) or kicked by beads 600 times too hot tears far
 # past the box before the fluid's friction (≈ ω Σ_j W_ij ≈ 4/3 per collision) cools
