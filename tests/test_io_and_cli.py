@@ -9,6 +9,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 from io_runs import (
     lees_edwards_edges,
     polymer_reference_run,
@@ -224,3 +225,11 @@ def test_ctrl_c_before_the_first_chunk_exits_130_without_a_traceback(tmp_path, c
         "jaxdpd: interrupted by SIGINT before the first chunk or after the last "
         "(no checkpoint written for it)"
     )
+
+
+def test_a_negative_step_count_names_the_option(capsys):
+    """--steps is checked as the option the user typed, not as the scene field."""
+    with pytest.raises(SystemExit) as raised:
+        main(["run", "scene.toml", "--steps", "-5"])
+    assert raised.value.code == 2
+    assert "--steps" in capsys.readouterr().err

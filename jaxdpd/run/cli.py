@@ -125,6 +125,17 @@ def _prepare(args):
     return prepare(scene, args.output, **options), path
 
 
+def _step_count(text: str) -> int:
+    """A number of steps given on the command line (argparse names the option)."""
+    try:
+        steps = int(text)
+    except ValueError:
+        steps = -1
+    if steps < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a whole number of steps ≥ 0")
+    return steps
+
+
 def _resume_hint(path) -> str:
     return f"resume with:\n  jaxdpd run --restart {shlex.quote(str(path))}"
 
@@ -190,7 +201,7 @@ def main(argv=None) -> int:
         "--restart", metavar="FILE", help="continue the run checkpointed in FILE (appends to it)"
     )
     run.add_argument("-o", "--output", help="H5MD output file (overrides output.path)")
-    run.add_argument("--steps", type=int, help="override run.steps (production steps)")
+    run.add_argument("--steps", type=_step_count, help="override run.steps (production steps)")
     run.add_argument(
         "--devices",
         type=int,
