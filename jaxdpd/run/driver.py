@@ -37,8 +37,8 @@ from jaxdpd.run import ensemble
 
 MAX_REALLOCATIONS = 8
 # Refit when a buffer would shrink to this fraction of its size or less: the saving
-# then outweighs a recompilation within a few chunks, and a liquid's fluctuations
-# (well inside a fit's head room) cannot make refits alternate with overflows.
+# then outweighs a recompilation within a few chunks, and a liquid's fluctuations,
+# mostly inside a fit's head room, seldom make refits alternate with overflows.
 SHRINK_BELOW = 0.75
 
 
