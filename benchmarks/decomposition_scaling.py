@@ -17,7 +17,10 @@ particles.
 
 On a CPU host the forced devices share the machine's cores, so adding devices adds
 no arithmetic throughput: the strong-scaling speed-up measures the overheads, not a
-parallel gain.  GPU figures need a multi-GPU machine (docs/scaling_out.md).
+parallel gain.  What one device's step moves through memory (XLA's cost analysis
+of the compiled step: bytes its operations read and write, per device) is printed
+beside the time: the CPU step is bound by memory traffic, and forced devices share
+the machine's memory bus.  GPU figures need a multi-GPU machine (docs/scaling_out.md).
 
 Usage:
     python benchmarks/decomposition_scaling.py [--devices 1 2 4 8] [--steps 50]
@@ -73,12 +76,15 @@ def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
     step_time = best_of(
         lambda: jax.block_until_ready(driver.run_chunk(simulation, state, steps)[0]), rounds
     )
+    cost = jax.jit(simulation.step_fn).lower(state).compile().cost_analysis()
+    cost = cost[0] if isinstance(cost, list) else cost
     row = {
         "devices": devices,
         "N": simulation.scene.n_particles,
         "box": list(lengths),
         "step_ms": 1e3 * step_time / steps,
         "particle_steps_per_s": simulation.scene.n_particles * steps / step_time,
+        "device_step_MB": cost["bytes accessed"] / 1e6,
     }
     if devices == 1:
         return row
@@ -162,6 +168,7 @@ def main() -> None:
         for row in rows:
             if row["scaling"] == kind:
                 row["time_vs_1"] = row["step_ms"] / base["step_ms"]
+                row["traffic_vs_1"] = row["device_step_MB"] / base["device_step_MB"]
     columns = [
         "scaling",
         "devices",
@@ -169,6 +176,8 @@ def main() -> None:
         "step_ms",
         "time_vs_1",
         "particle_steps_per_s",
+        "device_step_MB",
+        "traffic_vs_1",
         "exchange_ms",
         "exchange_share",
         "halo_share",

@@ -116,17 +116,22 @@ def check_slabs(devices: int, axis: int, box_length: float, halo: float):
         )
 
 
+def head_room(count: float) -> float:
+    """Rows for a particle count that fluctuates about `count`: four Poisson spreads
+    √count above it, and 8 more for small counts (a liquid, less compressible than
+    an ideal gas, fluctuates less)."""
+    return count + 4 * math.sqrt(count) + 8
+
+
 def buffer_sizes(n_particles: int, devices: int, width: float, halo: float, multiplier: float):
     """(capacity, halo_capacity, migration_capacity) for a uniform fluid, with head room.
 
-    A slab holds N/D particles on average, a halo layer N/D · h/w of them; the
-    Poisson spread of a count n is √n, and four of it plus the multiplier's share
-    covers a liquid's fluctuations (a run that needs more reallocates).
+    A slab holds N/D particles on average, a halo layer N/D · h/w of them;
+    `head_room` times the multiplier covers a random start's fluctuations (a run
+    that needs more reallocates).
     """
     per_slab = n_particles / devices
     per_halo = per_slab * min(1.0, halo / width)
-
-    def room(mean):
-        return math.ceil(multiplier * (mean + 4 * math.sqrt(mean) + 8))
-
-    return room(per_slab), room(per_halo), room(0.25 * per_halo)
+    return tuple(
+        math.ceil(multiplier * head_room(mean)) for mean in (per_slab, per_halo, 0.25 * per_halo)
+    )

@@ -37,7 +37,7 @@ from jaxdpd import pytree
 from jaxdpd.decomposition import exchange
 from jaxdpd.decomposition.exchange import DOMAINS, Rows
 from jaxdpd.decomposition.forces import domain_force_kernel
-from jaxdpd.decomposition.layout import SlabLayout, buffer_sizes, slab_axis
+from jaxdpd.decomposition.layout import SlabLayout, buffer_sizes, head_room, slab_axis
 from jaxdpd.decomposition.requirements import halo_width
 from jaxdpd.decomposition.slab_view import SlabState, SlabView
 from jaxdpd.engine import errors
@@ -183,6 +183,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
     samplers = [component.domain_sampler(context) for component in observables]
     check_drift = solvent.decomposition == "forces_after_drift"
     kT = scene.solvent.kT
+    density = scene.n_particles / box.volume
 
     def step_on_device(state, search):
         capacity = state.rows.ids.shape[1]
@@ -304,7 +305,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
             # trace that asked for it.
             with jax.ensure_compile_time_eval():
                 searches[rows_stepped] = cell_list_search(
-                    view, rows_stepped, reach, 0.0, absent_rows=True
+                    view, rows_stepped, reach, 0.0, absent_rows=True, density=density
                 )
         return searches[rows_stepped]
 
@@ -428,11 +429,13 @@ def build_decomposed(scene) -> DecomposedSimulation:
         )
 
     def sizes_for(needs) -> list:
-        """Buffer sizes holding `needs` with the capacity multiplier's head room (the
-        cell slots with a fifth, at least 3, to spare)."""
-        pairs, cells, capacity, halo, migration = (math.ceil(n * multiplier) for n in needs)
+        """Buffer sizes holding `needs`: the pairs with the capacity multiplier's head
+        room, the cell slots with a fifth (at least 3) to spare, the rows with
+        `head_room` (free rows are stepped like the others, so they cost time)."""
+        pairs = max(16, math.ceil(needs[0] * multiplier))
         cells = needs[1] + max(3, math.ceil(0.2 * needs[1]))
-        return [max(pairs, 16), cells, capacity, max(halo, 8), max(migration, 8)]
+        capacity, halo, migration = (math.ceil(head_room(n)) for n in needs[2:])
+        return [pairs, cells, capacity, halo, migration]
 
     def fitted_shapes(state) -> tuple:
         """The sizes `reallocate(state, None)` gives (the current ones before any step)."""
@@ -440,7 +443,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
         return buffer_shapes(state) if needs[2] == 0 else tuple(sizes_for(needs))
 
     def reallocate(state, needs):
-        """Buffers re-sized with the capacity multiplier's head room: for `needs`
+        """Buffers re-sized with the head room of `sizes_for`: for `needs`
         (`buffer_needs` of an overflowed chunk), never smaller than before; or, with
         None, fitted to what the state's own steps needed (`DecomposedState.needs`
         and the last pair list), smaller or larger: a state that has left its random

@@ -228,9 +228,10 @@ def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
     return jnp.concatenate(words).reshape(len(offsets) * groups, cell_capacity, -1)
 
 
-def dense_tier(n_particles: int, n_cells_total: int) -> int:
+def dense_tier(n_particles: float, n_cells_total: int) -> int:
     """Slots per cell that take part in the dense test: ⌈m + √m⌉ for a mean
-    occupancy m (a Poisson fluctuation above the mean; see the module docstring)."""
+    occupancy m = n_particles / n_cells_total (a Poisson fluctuation above the
+    mean; see the module docstring)."""
     mean = n_particles / n_cells_total
     return max(1, math.ceil(mean + math.sqrt(mean)))
 
@@ -370,7 +371,14 @@ def _compact(entries, pair_capacity: int):
     return owner, bit, slots < total, total
 
 
-def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_rows: bool = False):
+def cell_list_search(
+    box,
+    n_particles: int,
+    cutoff: float,
+    skin: float,
+    absent_rows: bool = False,
+    density: float | None = None,
+):
     """jaxdpd's cell-list half neighbour list (see the module docstring).
 
     Args:
@@ -381,6 +389,9 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_r
         skin: Verlet skin ≥ 0.
         absent_rows: rows with non-finite coordinates are absent (module docstring);
             False traces none of that test.
+        density: the number density the dense tier is sized for (default N over the
+            box volume).  A device's view in a decomposed run holds free rows and an
+            empty gap beside its particles, so its row count overstates the density.
     Returns:
         NeighborSearch with half = True.
     """
@@ -393,7 +404,8 @@ def cell_list_search(box, n_particles: int, cutoff: float, skin: float, absent_r
     offsets = stencil(n_cells)
     offset_table = jnp.asarray(offsets, jnp.int32)
     around_table = jnp.asarray(full_stencil(n_cells), jnp.int32)
-    dense_slots = dense_tier(n_particles, n_cells_total)
+    expected = n_particles if density is None else density * box.volume
+    dense_slots = dense_tier(expected, n_cells_total)
 
     def build(positions, box_state, cell_capacity: int, pair_capacity: int) -> PairList:
         bound_box = box.bind(box_state)
