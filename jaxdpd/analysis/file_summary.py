@@ -16,7 +16,11 @@ import numpy as np
 
 from jaxdpd.analysis.run_summary import ideal_chain_references, row_series, table_rows
 from jaxdpd.analysis.running_averages import RunningBlockAverages
-from jaxdpd.analysis.statistics import blocking_plateau
+from jaxdpd.analysis.statistics import (
+    DECIDING_BLOCKS,
+    blocking_plateau,
+    relative_error_of_error,
+)
 from jaxdpd.analysis.summary_table import format_table, glossary, rdf_rows
 from jaxdpd.analysis.temperature_check import temperature_warning
 from jaxdpd.io.reader import Correlation, load
@@ -31,11 +35,13 @@ class Verdict:
             None when it does not within the series.
         plateau_error: the standard error there (of the longest blocks when None).
         block_length: the length of the table's blocks.
+        samples: the series' length (for the uncertainty of the plateau's error).
     """
 
     plateau: int | None
     plateau_error: float
     block_length: int
+    samples: int
 
     @property
     def trusted(self) -> bool:
@@ -44,16 +50,19 @@ class Verdict:
     def note(self) -> str:
         if self.plateau is None:
             return f"NO PLATEAU (s.e. ≥ {self.plateau_error:.2g})"
+        spread = f"{relative_error_of_error(self.samples // self.plateau):.0%}"
         if self.trusted:
-            return f"ok (plateau from {self.plateau})"
-        return f"blocks too short: plateau at {self.plateau}, s.e. {self.plateau_error:.2g}"
+            return f"ok (plateau from {self.plateau}, s.e. ± {spread})"
+        return (
+            f"blocks too short: plateau at {self.plateau}, s.e. {self.plateau_error:.2g} ± {spread}"
+        )
 
 
 def verdict(series, block_length: int) -> Verdict:
     """The blocking check of a (T,) series whose error came from blocks of
     `block_length` samples."""
     plateau, error = blocking_plateau(np.asarray(series, np.float64))
-    return Verdict(plateau, error, block_length)
+    return Verdict(plateau, error, block_length, len(series))
 
 
 def verdicts(series: dict, block_length: int) -> dict:
@@ -102,7 +111,8 @@ class FileSummary:
             f"{self.samples} production steps stored of {scene.run.steps}{stored}",
             f"errors: {averages.n_blocks} block averages of {averages.block_length} steps; "
             "verdict: blocking analysis (Flyvbjerg & Petersen 1989; plateau criterion of "
-            "Lee et al., Phys. Rev. E 83, 066706 (2011))",
+            f"Lee et al., Phys. Rev. E 83, 066706 (2011), decided by levels of ≥ "
+            f"{DECIDING_BLOCKS} blocks; ± is the uncertainty of the plateau's s.e.)",
             "",
             format_table(self.rows, self.references, self.warnings, self.extra, notes),
             "",

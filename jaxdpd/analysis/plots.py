@@ -20,7 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from jaxdpd.analysis.run_summary import ideal_chain_references
-from jaxdpd.analysis.statistics import block_average, blocking_analysis, blocking_plateau
+from jaxdpd.analysis.statistics import (
+    DECIDING_BLOCKS,
+    block_average,
+    blocking_analysis,
+    blocking_plateau,
+    relative_error_of_error,
+)
 from jaxdpd.analysis.summary_table import row_unit
 from jaxdpd.io.reader import Correlation, load
 
@@ -66,7 +72,20 @@ def _trace(axes, time, values, name: str, reference=None) -> None:
 def _blocking(axes, values, name: str) -> None:
     """The blocking analysis of a series and its plateau (or a plain 'no plateau')."""
     lengths, errors = blocking_analysis(values.astype(np.float64))
-    axes.semilogx(lengths, np.asarray(errors), "o-", base=2)
+    errors = np.asarray(errors)
+    spread = errors * relative_error_of_error(len(values) // lengths)
+    axes.set_xscale("log", base=2)
+    deciding = len(values) // lengths >= DECIDING_BLOCKS
+    styles = (
+        (deciding, "C0", "s.e. ± its uncertainty"),
+        (~deciding, "none", f"< {DECIDING_BLOCKS} blocks: not deciding"),
+    )
+    for chosen, face, label in styles:
+        if chosen.any():
+            axes.errorbar(
+                lengths[chosen], errors[chosen], spread[chosen], fmt="o", mfc=face, label=label
+            )
+    axes.legend(fontsize="small")
     plateau, error = blocking_plateau(values.astype(np.float64))
     if plateau is None:
         axes.set_title("no plateau: the error is a lower bound", fontsize="medium")
