@@ -83,6 +83,8 @@ class FileSummary:
         path, scene: the file and its scene.
         checkpoint: the checkpoint header, or None.
         samples: production steps stored (of scene.run.steps).
+        steps: (first, last) step number stored, on the run's step counter, which
+            counts the equilibration steps too; None without series.
         averages: the block sums of the stored series (n_blocks, block_length).
         rows: name -> (mean, standard error), as the run printed them.
         references, warnings, extra: as jaxdpd.analysis.summary_table.format_table.
@@ -93,6 +95,7 @@ class FileSummary:
     scene: object
     checkpoint: object
     samples: int
+    steps: tuple[int, int] | None
     averages: RunningBlockAverages
     rows: dict
     references: dict
@@ -106,9 +109,15 @@ class FileSummary:
         scene, averages = self.scene, self.averages
         stored = "" if self.checkpoint is None else f"; checkpoint: {self.checkpoint.reason}"
         notes = {name: check.note() for name, check in self.checks.items()}
+        counted = (
+            ""
+            if self.steps is None
+            else f" (steps {self.steps[0]}–{self.steps[1]}: step numbers count the "
+            f"{scene.run.equilibration} equilibration steps too)"
+        )
         lines = [
             f"{self.path}: {scene.solvent.method} solvent, N = {scene.n_particles}, "
-            f"{self.samples} production steps stored of {scene.run.steps}{stored}",
+            f"{self.samples} production steps stored of {scene.run.steps}{counted}{stored}",
             f"errors: {averages.n_blocks} block averages of {averages.block_length} steps; "
             "verdict: blocking analysis (Flyvbjerg & Petersen 1989; plateau criterion of "
             f"Lee et al., Phys. Rev. E 83, 066706 (2011), decided by levels of ≥ "
@@ -141,6 +150,8 @@ def read_summary(path) -> FileSummary:
     scene = record.scene
     series = {name: np.asarray(stored.value) for name, stored in record.observables.items()}
     samples = min((len(values) for values in series.values()), default=0)
+    counters = [np.asarray(stored.step) for stored in record.observables.values()]
+    steps = (int(counters[0][0]), int(counters[0][samples - 1])) if samples else None
     averages = RunningBlockAverages(samples)
     averages.add(0, {name: values[:samples] for name, values in series.items()})
     correlations = {
@@ -158,7 +169,17 @@ def read_summary(path) -> FileSummary:
     extra = rdf_rows(rdf.r, rdf.g) if rdf is not None and rdf.samples else {}
     references = ideal_chain_references(scene, rows)
     return FileSummary(
-        path, scene, record.checkpoint, samples, averages, rows, references, warnings, extra, checks
+        path,
+        scene,
+        record.checkpoint,
+        samples,
+        steps,
+        averages,
+        rows,
+        references,
+        warnings,
+        extra,
+        checks,
     )
 
 
