@@ -33,7 +33,8 @@ class Verdict:
     Attributes:
         plateau: block length (samples) at which the blocking analysis plateaus, or
             None when it does not within the series.
-        plateau_error: the standard error there (of the longest blocks when None).
+        plateau_error: the standard error there (when None, the largest of the levels
+            that may decide, a lower bound).
         block_length: the length of the table's blocks.
         samples: the series' length (for the uncertainty of the plateau's error).
     """
