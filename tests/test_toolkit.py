@@ -10,9 +10,9 @@ import sys
 
 import numpy as np
 import pytest
+from ar1_series import ar1, ar1_block_error
 from conftest import make_scene
 from io_runs import polymer_reference_run, polymer_scene
-from scipy.signal import lfilter
 
 import jaxdpd
 from jaxdpd.analysis.file_summary import read_summary, verdict
@@ -23,26 +23,6 @@ from jaxdpd.run import cli
 from jaxdpd.run.cli import main
 from jaxdpd.run.progress import Progress
 from jaxdpd.validation import SceneError
-
-
-def ar1(phi: float, samples: int, seed: int, mean: float = 0.0, scale: float = 1.0):
-    """mean + scale x_t, x_t = φ x_{t−1} + ε_t, ε ~ N(0, 1), x_0 drawn from the
-    stationary distribution."""
-    noise = np.random.default_rng(seed).standard_normal(samples)
-    noise[0] /= np.sqrt(1 - phi**2)
-    return mean + scale * lfilter([1.0], [1.0, -phi], noise)
-
-
-def ar1_block_error(phi: float, samples: int, block: int) -> float:
-    """The exact standard error of blocking at block length B for an AR(1) series of
-    unit noise: the variance of a block mean is σ²/B [g − 2φ(1 − φ^B)/(B(1 − φ)²)]
-    with σ² = 1/(1 − φ²) and the statistical inefficiency g = (1 + φ)/(1 − φ)
-    (e.g. Priestley, Spectral Analysis and Time Series (1981), §5.3; Flyvbjerg &
-    Petersen 1989 eq. 27 in this form), over T/B blocks."""
-    variance = 1 / (1 - phi**2)
-    g = (1 + phi) / (1 - phi)
-    block_variance = variance / block * (g - 2 * phi * (1 - phi**block) / (block * (1 - phi) ** 2))
-    return float(np.sqrt(block_variance / (samples // block)))
 
 
 def test_blocking_plateau_of_a_correlated_series_gives_its_exact_error():

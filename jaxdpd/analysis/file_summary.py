@@ -16,7 +16,11 @@ import numpy as np
 
 from jaxdpd.analysis.run_summary import ideal_chain_references, row_series, table_rows
 from jaxdpd.analysis.running_averages import RunningBlockAverages
-from jaxdpd.analysis.statistics import blocking_plateau
+from jaxdpd.analysis.statistics import (
+    DECIDING_BLOCKS,
+    blocking_plateau,
+    relative_error_of_error,
+)
 from jaxdpd.analysis.summary_table import format_table, glossary, rdf_rows
 from jaxdpd.analysis.temperature_check import temperature_warning
 from jaxdpd.io.reader import Correlation, load
@@ -29,13 +33,16 @@ class Verdict:
     Attributes:
         plateau: block length (samples) at which the blocking analysis plateaus, or
             None when it does not within the series.
-        plateau_error: the standard error there (of the longest blocks when None).
+        plateau_error: the standard error there (when None, the largest of the levels
+            that may decide, a lower bound).
         block_length: the length of the table's blocks.
+        samples: the series' length (for the uncertainty of the plateau's error).
     """
 
     plateau: int | None
     plateau_error: float
     block_length: int
+    samples: int
 
     @property
     def trusted(self) -> bool:
@@ -44,16 +51,19 @@ class Verdict:
     def note(self) -> str:
         if self.plateau is None:
             return f"NO PLATEAU (s.e. ≥ {self.plateau_error:.2g})"
+        spread = f"{relative_error_of_error(self.samples // self.plateau):.0%}"
         if self.trusted:
-            return f"ok (plateau from {self.plateau})"
-        return f"blocks too short: plateau at {self.plateau}, s.e. {self.plateau_error:.2g}"
+            return f"ok (plateau from {self.plateau}, s.e. ± {spread})"
+        return (
+            f"blocks too short: plateau at {self.plateau}, s.e. {self.plateau_error:.2g} ± {spread}"
+        )
 
 
 def verdict(series, block_length: int) -> Verdict:
     """The blocking check of a (T,) series whose error came from blocks of
     `block_length` samples."""
     plateau, error = blocking_plateau(np.asarray(series, np.float64))
-    return Verdict(plateau, error, block_length)
+    return Verdict(plateau, error, block_length, len(series))
 
 
 def verdicts(series: dict, block_length: int) -> dict:
@@ -74,6 +84,8 @@ class FileSummary:
         path, scene: the file and its scene.
         checkpoint: the checkpoint header, or None.
         samples: production steps stored (of scene.run.steps).
+        steps: (first, last) step number stored, on the run's step counter, which
+            counts the equilibration steps too; None without series.
         averages: the block sums of the stored series (n_blocks, block_length).
         rows: name -> (mean, standard error), as the run printed them.
         references, warnings, extra: as jaxdpd.analysis.summary_table.format_table.
@@ -84,6 +96,7 @@ class FileSummary:
     scene: object
     checkpoint: object
     samples: int
+    steps: tuple[int, int] | None
     averages: RunningBlockAverages
     rows: dict
     references: dict
@@ -97,12 +110,19 @@ class FileSummary:
         scene, averages = self.scene, self.averages
         stored = "" if self.checkpoint is None else f"; checkpoint: {self.checkpoint.reason}"
         notes = {name: check.note() for name, check in self.checks.items()}
+        counted = (
+            ""
+            if self.steps is None
+            else f" (steps {self.steps[0]}–{self.steps[1]}: step numbers count the "
+            f"{scene.run.equilibration} equilibration steps too)"
+        )
         lines = [
             f"{self.path}: {scene.solvent.method} solvent, N = {scene.n_particles}, "
-            f"{self.samples} production steps stored of {scene.run.steps}{stored}",
+            f"{self.samples} production steps stored of {scene.run.steps}{counted}{stored}",
             f"errors: {averages.n_blocks} block averages of {averages.block_length} steps; "
             "verdict: blocking analysis (Flyvbjerg & Petersen 1989; plateau criterion of "
-            "Lee et al., Phys. Rev. E 83, 066706 (2011))",
+            f"Lee et al., Phys. Rev. E 83, 066706 (2011), decided by levels of ≥ "
+            f"{DECIDING_BLOCKS} blocks; ± is the uncertainty of the plateau's s.e.)",
             "",
             format_table(self.rows, self.references, self.warnings, self.extra, notes),
             "",
@@ -131,6 +151,8 @@ def read_summary(path) -> FileSummary:
     scene = record.scene
     series = {name: np.asarray(stored.value) for name, stored in record.observables.items()}
     samples = min((len(values) for values in series.values()), default=0)
+    counters = [np.asarray(stored.step) for stored in record.observables.values()]
+    steps = (int(counters[0][0]), int(counters[0][samples - 1])) if samples else None
     averages = RunningBlockAverages(samples)
     averages.add(0, {name: values[:samples] for name, values in series.items()})
     correlations = {
@@ -148,7 +170,17 @@ def read_summary(path) -> FileSummary:
     extra = rdf_rows(rdf.r, rdf.g) if rdf is not None and rdf.samples else {}
     references = ideal_chain_references(scene, rows)
     return FileSummary(
-        path, scene, record.checkpoint, samples, averages, rows, references, warnings, extra, checks
+        path,
+        scene,
+        record.checkpoint,
+        samples,
+        steps,
+        averages,
+        rows,
+        references,
+        warnings,
+        extra,
+        checks,
     )
 
 

@@ -20,13 +20,22 @@ from pathlib import Path
 import numpy as np
 
 from jaxdpd.analysis.run_summary import ideal_chain_references
-from jaxdpd.analysis.statistics import block_average, blocking_analysis, blocking_plateau
+from jaxdpd.analysis.statistics import (
+    DECIDING_BLOCKS,
+    block_average,
+    blocking_analysis,
+    blocking_plateau,
+    relative_error_of_error,
+)
 from jaxdpd.analysis.summary_table import row_unit
 from jaxdpd.io.reader import Correlation, load
 
 FORMATS = ("png", "pdf")
 N_BLOCKS = 20
 MSD_NAMES = ("g1", "g2", "g3")
+# Stored times are step × Δt with the step counter of the whole run (equilibration
+# included; docs/file_formats.md, "Steps and times").
+TIME_LABEL = "t [τ] from the run's start (equilibration included)"
 TENSOR_LABELS = ((0, 0, "xx"), (1, 1, "yy"), (2, 2, "zz"), (0, 1, "xy"), (0, 2, "xz"), (1, 2, "yz"))
 
 
@@ -58,7 +67,7 @@ def _trace(axes, time, values, name: str, reference=None) -> None:
         axes.set_title(f"{name}: {mean:.5g} ± {error:.2g}", fontsize="medium")
     if reference is not None:
         axes.axhline(reference, color="C3", ls="--", label="ideal chain")
-    axes.set_xlabel("t [τ]")
+    axes.set_xlabel(TIME_LABEL)
     axes.set_ylabel(_label(name))
     axes.legend(fontsize="small")
 
@@ -66,7 +75,20 @@ def _trace(axes, time, values, name: str, reference=None) -> None:
 def _blocking(axes, values, name: str) -> None:
     """The blocking analysis of a series and its plateau (or a plain 'no plateau')."""
     lengths, errors = blocking_analysis(values.astype(np.float64))
-    axes.semilogx(lengths, np.asarray(errors), "o-", base=2)
+    errors = np.asarray(errors)
+    spread = errors * relative_error_of_error(len(values) // lengths)
+    axes.set_xscale("log", base=2)
+    deciding = len(values) // lengths >= DECIDING_BLOCKS
+    styles = (
+        (deciding, "C0", "s.e. ± its uncertainty"),
+        (~deciding, "none", f"< {DECIDING_BLOCKS} blocks: not deciding"),
+    )
+    for chosen, face, label in styles:
+        if chosen.any():
+            axes.errorbar(
+                lengths[chosen], errors[chosen], spread[chosen], fmt="o", mfc=face, label=label
+            )
+    axes.legend(fontsize="small")
     plateau, error = blocking_plateau(values.astype(np.float64))
     if plateau is None:
         axes.set_title("no plateau: the error is a lower bound", fontsize="medium")
@@ -104,7 +126,7 @@ def stress_figure(observables: dict):
         kind.plot(series.time, running_mean(values), color=line.get_color(), label=f"P_{label}")
     for axis, title in zip(axes[:, 0], ("normal", "off-diagonal"), strict=True):
         axis.set_title(f"pressure tensor, {title} components (thin: per step; thick: running mean)")
-        axis.set_xlabel("t [τ]")
+        axis.set_xlabel(TIME_LABEL)
         axis.set_ylabel(f"P [{row_unit('pressure')}]")
         axis.legend(fontsize="small", ncol=3)
     return figure

@@ -4,7 +4,7 @@ With the pressure tensor P = −σ of jaxdpd.observables.thermo (Irving–Kirkwo
 eqs. 3.46–3.49) and u_x = γ̇ (y − L_y/2):
 
     η  = −⟨P_xy⟩/γ̇,
-    Ψ1 = N1/γ̇²,  N1 = σ_xx − σ_yy = ⟨P_yy⟩ − ⟨P_xx⟩,
+    Ψ1 = N1/γ̇²,  N1 = σ_xx − σ_yy = ⟨P_yy⟩ − ⟨P_xx⟩,   (normal_stress_differences)
     Ψ2 = N2/γ̇²,  N2 = σ_yy − σ_zz = ⟨P_zz⟩ − ⟨P_yy⟩
 
 (Bird, Armstrong & Hassager, *Dynamics of Polymeric Liquids* vol. 1, 2nd ed. (1987),
@@ -44,10 +44,27 @@ def material_function_series(pressure_tensor, shear_rate) -> dict:
     rate = jnp.asarray(shear_rate, pressure.dtype)[..., None]
     rate = jnp.where(rate == 0, jnp.nan, rate)
     shear = 0.5 * (pressure[..., 0, 1] + pressure[..., 1, 0])
+    first, second = normal_stress_difference_series(pressure)
+    return {"viscosity": -shear / rate, "psi1": first / rate**2, "psi2": second / rate**2}
+
+
+def normal_stress_difference_series(pressure_tensor):
+    """Per-sample N1 = σ_xx − σ_yy = P_yy − P_xx and N2 = σ_yy − σ_zz = P_zz − P_yy
+    (k_BT/r_c³) of a (..., 3, 3) pressure-tensor series (P = −σ)."""
+    pressure = as_array(pressure_tensor)
+    return (
+        pressure[..., 1, 1] - pressure[..., 0, 0],
+        pressure[..., 2, 2] - pressure[..., 1, 1],
+    )
+
+
+def normal_stress_differences(pressure_tensor, n_blocks: int = 20) -> dict:
+    """N1 and N2 of a (T, 3, 3) pressure-tensor series with block-average standard
+    errors: {"N1", "N2"} → (mean, standard error)."""
+    first, second = normal_stress_difference_series(pressure_tensor)
     return {
-        "viscosity": -shear / rate,
-        "psi1": (pressure[..., 1, 1] - pressure[..., 0, 0]) / rate**2,
-        "psi2": (pressure[..., 2, 2] - pressure[..., 1, 1]) / rate**2,
+        "N1": block_average(first, n_blocks=n_blocks),
+        "N2": block_average(second, n_blocks=n_blocks),
     }
 
 

@@ -16,7 +16,13 @@ from jaxdpd.observables.chain_correlators import center_of_mass_diffusion
 from jaxdpd.observables.chain_series import ideal_references
 
 # Components of the pressure tensor reported in the summary table: (row, column, name).
-TENSOR_COMPONENTS = ((0, 1, "P_xy"), (1, 0, "P_yx"), (0, 0, "P_xx"), (2, 2, "P_zz"))
+TENSOR_COMPONENTS = (
+    (0, 1, "P_xy"),
+    (1, 0, "P_yx"),
+    (0, 0, "P_xx"),
+    (1, 1, "P_yy"),
+    (2, 2, "P_zz"),
+)
 
 
 def series_rows(averages: RunningBlockAverages) -> dict:

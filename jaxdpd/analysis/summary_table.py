@@ -23,11 +23,24 @@ GLOSSARY = {
     "P_xy": (PRESSURE, "shear component xy of the pressure tensor (x flow, y gradient)"),
     "P_yx": (PRESSURE, "component yx of the pressure tensor"),
     "P_xx": (PRESSURE, "normal component xx of the pressure tensor"),
+    "P_yy": (PRESSURE, "normal component yy of the pressure tensor"),
     "P_zz": (PRESSURE, "normal component zz of the pressure tensor"),
+    "N1": (PRESSURE, "first normal stress difference N1 = σ_xx − σ_yy = P_yy − P_xx (shear)"),
+    "N2": (PRESSURE, "second normal stress difference N2 = σ_yy − σ_zz = P_zz − P_yy (shear)"),
     "viscosity": (VISCOSITY, "shear viscosity η = −P_xy/γ̇ (polymer/: spring part)"),
     "viscosity_part/": (VISCOSITY, "the part of η due to one force (bond, conservative, ...)"),
     "psi1": (NORMAL_STRESS, "first normal stress coefficient Ψ1 = −(P_xx − P_yy)/γ̇²"),
     "psi2": (NORMAL_STRESS, "second normal stress coefficient Ψ2 = −(P_yy − P_zz)/γ̇²"),
+    "eta1": (
+        VISCOSITY,
+        "planar elongational viscosity η̄1 = (P_xx − P_zz)/ε̇ (z stretches, x compresses; "
+        "4η for a Newtonian fluid; polymer/: spring part)",
+    ),
+    "eta2": (
+        VISCOSITY,
+        "second planar elongational viscosity η̄2 = (P_xx − P_yy)/ε̇ (y neutral; 2η for a "
+        "Newtonian fluid)",
+    ),
     "bond_length_sq": ("r_c^2", "mean squared spring length ⟨Q²⟩"),
     "end_to_end_sq": ("r_c^2", "mean squared end-to-end distance ⟨R_e²⟩"),
     "gyration_radius_sq": ("r_c^2", "mean squared radius of gyration ⟨R_g²⟩"),

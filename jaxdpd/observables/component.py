@@ -189,6 +189,15 @@ def steady_shear_rate(scene) -> float | None:
     return flow.shear_rate or None
 
 
+def steady_elongation_rate(scene) -> float | None:
+    """ε̇ of a nonzero planar elongational flow (elongational viscosities exist), else
+    None."""
+    flow = scene.flow
+    if flow is None or flow.kind != "planar_elongation":
+        return None
+    return flow.elongation_rate or None
+
+
 def summary_row(estimate) -> tuple[float, float]:
     """(mean, standard error) as Python floats."""
     mean, error = estimate

@@ -13,10 +13,12 @@ term; v is the peculiar velocity in flow.)  Each part is reported separately.
 
 import numpy as np
 
-from jaxdpd.analysis.rheology import shear_rheology
+from jaxdpd.analysis.elongation import elongational_material_functions
+from jaxdpd.analysis.rheology import normal_stress_differences, shear_rheology
 from jaxdpd.observables.component import (
     Observable,
     long_enough,
+    steady_elongation_rate,
     steady_shear_rate,
     summary_row,
 )
@@ -72,6 +74,12 @@ def pressure_series(samples: dict, scene) -> dict:
     series["pressure_tensor"] = total / volume
     series["pressure"] = scalar_pressure(series["pressure_tensor"])
     return series
+
+
+def polymer_name(name: str) -> str:
+    """ "eta1_polymer" of jaxdpd.analysis.elongation → "polymer/eta1", the summary's
+    name for a polymer part (as "polymer/viscosity" in shear)."""
+    return f"polymer/{name.removesuffix('_polymer')}" if name.endswith("_polymer") else name
 
 
 class Temperature(Observable):
@@ -140,9 +148,17 @@ class Pressure(Observable):
         return {"run.chunk": 9 * scene.run.chunk * itemsize}  # a tensor per step
 
     def summary_rows(self, scene, series, n_blocks):
-        """Under steady shear: η, Ψ1, Ψ2 of the fluid, the polymer and each part."""
-        rate = steady_shear_rate(scene)
-        if rate is None or not long_enough(series, "pressure_tensor", n_blocks):
+        """Under steady shear: N1, N2 and η, Ψ1, Ψ2 of the fluid, the polymer and each
+        part; in planar elongation: η̄1, η̄2 of the fluid and the polymer."""
+        if not long_enough(series, "pressure_tensor", n_blocks):
             return {}
-        rheology = shear_rheology(series, rate, n_blocks)
-        return {name: summary_row(estimate) for name, estimate in rheology.items()}
+        shear, elongation = steady_shear_rate(scene), steady_elongation_rate(scene)
+        if shear is not None:
+            rows = normal_stress_differences(series["pressure_tensor"], n_blocks)
+            rows |= shear_rheology(series, shear, n_blocks)
+        elif elongation is not None:
+            functions = elongational_material_functions(series, elongation, n_blocks)
+            rows = {polymer_name(name): value for name, value in functions.items()}
+        else:
+            return {}
+        return {name: summary_row(estimate) for name, estimate in rows.items()}

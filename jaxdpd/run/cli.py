@@ -1,13 +1,16 @@
 """jaxdpd: simulations of polymer solutions in mesoscale solvents, from scene files.
 
     jaxdpd run SCENE.toml [-o FILE] [--steps N] [--devices D] [-q] [--overwrite]
-    jaxdpd run --restart FILE [-o COPY] [--steps N] [-q]
+    jaxdpd run --restart FILE [-o COPY] [--steps N] [-q] [--overwrite]
     jaxdpd demo [-o FILE] [-q] [--overwrite]      (writes demo.h5md without -o)
     jaxdpd summary RUN.h5md         the summary table with units, glossary, blocking check
     jaxdpd plot RUN.h5md [-o DIR] [--format png|pdf]   figures (needs the `plot` extra)
     jaxdpd export RUN.h5md --format gsd|xyz|lammps-data [-o OUT] [--frames SPEC]
                   [--atom-style bond|full]
     jaxdpd --version
+
+An existing output file (or COPY) is never replaced without --overwrite: the command
+stops before building anything, naming the file, what it holds and the options.
 
 Exit status: 0 done; 2 invalid input (scene, file or arguments, including a file to
 restart that is damaged or incomplete; one line on stderr names the problem); 3 the
@@ -39,7 +42,6 @@ DEMO_OUTPUT = "demo.h5md"  # where `jaxdpd demo` writes without -o
 INVALID_INPUT = 2
 SIMULATION_FAILED = 3
 OUTPUT_FAILED = 4
-FINISHED = "end of run"
 
 
 def demo_scene():
@@ -66,27 +68,11 @@ def _describe(scene) -> str:
     )
 
 
-def _refuse_to_clobber(path) -> None:
-    """Refuse to overwrite a file that holds a run which can still be resumed."""
-    from jaxdpd.io.checkpoint import read_checkpoint_info
-    from jaxdpd.io.errors import RunFileError
-
-    try:
-        info = read_checkpoint_info(path)
-    except RunFileError:
-        return  # missing, not ours, or nothing to resume: overwriting loses nothing
-    if info.reason != FINISHED:
-        raise ValueError(
-            f"{path} holds an unfinished run (checkpoint at step {info.step}: "
-            f"{info.reason}); resume it with `jaxdpd run --restart {shlex.quote(str(path))}`, "
-            "or pass --overwrite to start afresh"
-        )
-
-
 def _prepare(args):
     """(the prepared Run, its output path) from the command line; raises on bad input."""
     from jaxdpd.io.checkpoint import checkpoint_path
     from jaxdpd.io.reader import read_scene
+    from jaxdpd.run.overwrite import refuse_existing
     from jaxdpd.run.runner import prepare_resume
     from jaxdpd.scene import Scene
 
@@ -95,15 +81,15 @@ def _prepare(args):
         path = args.output or DEMO_OUTPUT
         if args.output is None:
             print(f"jaxdpd: writing {path} (give -o FILE to write elsewhere)", file=sys.stderr)
-        if not args.overwrite:
-            _refuse_to_clobber(path)
-        return prepare(demo_scene(), path, **options), path
+        return prepare(demo_scene(), path, overwrite=args.overwrite, **options), path
     if args.restart is not None:
         if args.scene is not None:
             raise ValueError("give a scene file or --restart FILE, not both")
         path = args.restart
         if args.output is not None and args.output != path:
             # Continue in the copy, keep the original.
+            if not args.overwrite:
+                refuse_existing(args.output)
             shutil.copyfile(path, args.output)
             shutil.copyfile(checkpoint_path(path), checkpoint_path(args.output))
             path = args.output
@@ -120,9 +106,7 @@ def _prepare(args):
         scene = scene.replace(output={"author": args.author})
     request_host_devices(scene.parallel.devices)
     path = args.output or scene.output.path
-    if path and not args.overwrite:
-        _refuse_to_clobber(path)
-    return prepare(scene, args.output, **options), path
+    return prepare(scene, args.output, overwrite=args.overwrite, **options), path
 
 
 def _step_count(text: str) -> int:
@@ -213,7 +197,7 @@ def main(argv=None) -> int:
     run.add_argument(
         "--overwrite",
         action="store_true",
-        help="overwrite an output file holding an unfinished run",
+        help="replace an existing output file (finished run or not) instead of refusing",
     )
     run.add_argument("--author", help="author name in the H5MD file (overrides output.author)")
     demo = commands.add_parser("demo", help="run the embedded default scene")
@@ -222,7 +206,7 @@ def main(argv=None) -> int:
     demo.add_argument(
         "--overwrite",
         action="store_true",
-        help="overwrite an output file holding an unfinished run",
+        help="replace an existing output file (finished run or not) instead of refusing",
     )
     add_file_commands(commands)
     args = parser.parse_args(argv)

@@ -47,6 +47,7 @@ from jaxdpd.io.reader import open_run_file, scene_of, time_series_names
 from jaxdpd.observables import scene_observables
 from jaxdpd.observables.chain_correlators import chain_correlations
 from jaxdpd.run import driver
+from jaxdpd.run.overwrite import refuse_existing
 from jaxdpd.run.progress import Progress
 from jaxdpd.run.restore import restore
 from jaxdpd.scene import Scene
@@ -333,21 +334,26 @@ class Run:
         return summary
 
 
-def prepare(scene, output_path=None, **options) -> Run:
+def prepare(scene, output_path=None, overwrite: bool = False, **options) -> Run:
     """Build a scene, draw its initial state (or read it: [initial]) and create its
     output file.
 
     Args:
         scene: a validated Scene.
-        output_path: H5MD file to write (overwritten); defaults to scene.output.path
-            (may be None: nothing is written and the run cannot be resumed).
+        output_path: H5MD file to write; defaults to scene.output.path (may be None:
+            nothing is written and the run cannot be resumed).
+        overwrite: replace an existing output file (and its checkpoint); without it an
+            existing file is refused (jaxdpd.run.overwrite) before anything is built.
         **options: progress, stream, on_chunk, keep_series, handle_signals (see Run).
     Raises:
+        FileExistsError: the output file exists and `overwrite` is False.
         RunFileError: the output file cannot be created.
     """
+    path = output_path if output_path is not None else scene.output.path
+    if path and not overwrite:
+        refuse_existing(path)
     simulation = build(scene)
     state = simulation.init_fn(**read_initial(scene))
-    path = output_path if output_path is not None else scene.output.path
     writer = H5MDWriter.create(path, scene, simulation.blocks) if path else None
     return Run(simulation, state, writer, EQUILIBRATION, **options)
 
@@ -409,9 +415,11 @@ def simulate(scene, output_path=None, progress: bool = True, stream=None, **opti
     """Run a scene from its seed: `prepare(...).execute()`.
 
     Args:
-        scene, output_path: see `prepare`.
+        scene, output_path: see `prepare` (an existing output file is refused unless
+            overwrite=True is passed).
         progress: print a progress bar to `stream` (default sys.stderr).
-        **options: on_chunk, keep_series, handle_signals (see Run).
+        **options: overwrite (see `prepare`); on_chunk, keep_series, handle_signals
+            (see Run).
     Returns:
         RunSummary.
     Raises:
