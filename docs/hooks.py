@@ -48,8 +48,9 @@ def examples_page() -> str:
         "jaxdpd run examples/dpd_fluid.toml -o dpd_fluid.h5md",
         "```",
         "",
-        "(`--steps N` shortens a run). Each is run for a few steps by "
-        "`tests/test_examples.py`. Generated from the files' header comments.",
+        "(`--steps N` shortens a run). Each is run for a few steps by the default "
+        "tests (`tests/test_examples.py`, `tests/test_examples_shear.py`). Generated "
+        "from the files' header comments.",
         "",
         "| file | what |",
         "|---|---|",

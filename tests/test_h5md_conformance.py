@@ -1,5 +1,6 @@
 """jaxdpd's H5MD files as other readers see them: the units of every dataset, pyh5md
-(the H5MD authors' reader) and a plain MDAnalysis.Universe without jaxdpd's bridge.
+(the H5MD authors' reader) and a plain MDAnalysis.Universe without jaxdpd's bridge,
+as docs/file_formats.md describes them (its quoted messages and snippet are run here).
 
 The dimensions below are written from what each quantity is (its definition in the
 module docstrings and the thesis), not from the code's unit table: L length (r_c),
@@ -9,6 +10,7 @@ dimensions and compared.
 
 import re
 import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -119,24 +121,62 @@ def test_pyh5md_reads_frames_box_and_masses():
         np.testing.assert_allclose(edges.value[-1], scene.box.lengths, rtol=1e-15)
 
 
+def documented_block(marker: str) -> str:
+    """The fenced block after `<!-- test: marker -->` in docs/file_formats.md."""
+    page = (Path(__file__).resolve().parent.parent / "docs" / "file_formats.md").read_text()
+    match = re.search(rf"<!-- test: {marker} -->\n```\w+\n(.*?)```", page, re.S)
+    assert match, f"docs/file_formats.md: no block marked {marker!r}"
+    return match.group(1)
+
+
 def test_mdanalysis_opens_the_file_without_a_topology_or_jaxdpd():
     """MDAnalysis 2.11 finds the particle count in a group named "trajectory" (its
     H5MDReader.parse_n_atoms) and refuses data without SI `unit` attributes unless
     told `convert_units=False` (as for LAMMPS's H5MD files, MDAnalysis issue 4722);
     with that keyword its minimal-topology parser passes it on to parse_n_atoms,
     which does not take it, so the count is then given (n_atoms).  No jaxdpd code,
-    no topology file."""
+    no topology file.  The calls that fail, fail with the messages the docs quote."""
     MDAnalysis = pytest.importorskip("MDAnalysis")
     reference = polymer_reference_run()
     path, n = str(reference.path), reference.scene.n_particles
     assert path.endswith(".h5md")  # MDAnalysis picks its reader by the extension
-    with pytest.raises(ValueError, match="must have readable units"):
-        MDAnalysis.Universe(path)  # the topology is found; the units are refused
+    lines = documented_block("mdanalysis messages").splitlines()
+    calls = [line.removeprefix(">>> ") for line in lines if line.startswith(">>> ")]
+    messages = [line for line in lines if not line.startswith(">>> ")]
+    assert len(calls) == len(messages) == 2
+    for call, message in zip(calls, messages, strict=True):
+        with pytest.raises(Exception) as raised:
+            eval(call.replace('"run.h5md"', "path"), {"MDAnalysis": MDAnalysis, "path": path})
+        assert f"{raised.type.__name__}: {raised.value}" == message, call
     universe = MDAnalysis.Universe(path, convert_units=False, n_atoms=n)
     frames = read_trajectory(path)
     assert universe.trajectory.n_frames == len(frames.step)
     for timestep, expected in zip(universe.trajectory, frames.value, strict=True):
         np.testing.assert_array_equal(timestep.positions, expected.astype(np.float32))
+
+
+def test_mdanalysis_observables_at_the_frames_steps_as_documented():
+    """Plain MDAnalysis puts row k of each series in frame k (the docs say so: the
+    reference run's frames are every 20 steps, its series every step); the docs'
+    snippet reads the temperature at each frame's step through the series' `step`."""
+    MDAnalysis = pytest.importorskip("MDAnalysis")
+    reference = polymer_reference_run()
+    path, n = str(reference.path), reference.scene.n_particles
+    with h5py.File(path, "r") as handle:
+        steps = handle["observables/temperature/step"][()]
+        values = handle["observables/temperature/value"][()]
+        frame_steps = handle["particles/trajectory/position/step"][()]
+    by_step = dict(zip(steps.tolist(), values, strict=True))
+    assert np.all(np.diff(frame_steps) > 1)  # frames and series are sampled apart
+    universe = MDAnalysis.Universe(path, convert_units=False, n_atoms=n)
+    for k, timestep in enumerate(universe.trajectory):
+        assert timestep.data["step"] == frame_steps[k]
+        assert timestep.data["temperature"] == values[k]  # by index, as documented
+    namespace = {"path": path, "n_atoms": n}
+    exec(documented_block("mdanalysis observables"), namespace)
+    expected = [by_step[step] for step in frame_steps.tolist()]
+    np.testing.assert_array_equal(namespace["temperature_at_frames"], expected)
+    assert not np.array_equal(expected, values[: len(frame_steps)])
 
 
 def test_author_option_and_files_written_before_the_group_rename(tmp_path):

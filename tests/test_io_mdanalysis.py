@@ -61,3 +61,28 @@ def test_universe_helper_types_atoms_by_species_and_bonds_the_chains():
     assert len(universe.atoms.fragments) == counts["dumbbell"] // 2 + counts["solvent"]
     final = np.asarray(reference.summary.state.positions)
     np.testing.assert_array_equal(universe.trajectory[-1].positions, final)
+
+
+def test_universe_helper_gives_each_frame_the_observables_at_its_step():
+    """Frames every 20 steps, series every step: each frame's ts.data holds every
+    series' value at the frame's step (plain MDAnalysis holds row k in frame k)."""
+    reference = polymer_reference_run()
+    with h5py.File(reference.path, "r") as handle:
+        series = {}
+
+        def collect(name, item):
+            if isinstance(item, h5py.Group) and "step" in item and "value" in item:
+                series[name] = dict(zip(item["step"][()].tolist(), item["value"][()], strict=True))
+
+        handle["observables"].visititems(collect)
+        frame_steps = handle["particles/trajectory/position/step"][()]
+    assert {"temperature", "pressure_tensor", "dumbbell/bond_conformation"} <= set(series)
+    universe = mdanalysis_universe(reference.path)
+    for timestep, step in zip(universe.trajectory, frame_steps.tolist(), strict=True):
+        assert timestep.data["step"] == step
+        for name, by_step in series.items():
+            np.testing.assert_array_equal(timestep.data[name], by_step[step], err_msg=name)
+    # Random access reads the same values.
+    np.testing.assert_array_equal(
+        universe.trajectory[2].data["temperature"], series["temperature"][frame_steps[2]]
+    )
