@@ -22,9 +22,18 @@ of the compiled step: bytes its operations read and write, per device) is printe
 beside the time: the CPU step is bound by memory traffic, and forced devices share
 the machine's memory bus.  GPU figures need a multi-GPU machine (docs/scaling_out.md).
 
+`--method lowe_andersen` runs the same tables for a Lowe–Andersen fluid (Γ Δt =
+`--collision-probability`, r_T = r_c, no γ), whose sweep exchanges halo velocities
+once per round.  `--paired` times instead, for each D > 1, the decomposed step and
+the single-device step of the same scene in one process with D devices, alternating
+rounds (A, B, A, B, ...; best of each), and reports their ratio: on a loaded machine
+a ratio from one process is steadier than two processes' absolute times.
+
 Usage:
     python benchmarks/decomposition_scaling.py [--devices 1 2 4 8] [--steps 50]
-Writes benchmarks/results/decomposition_scaling.json.
+        [--method dpd|lowe_andersen] [--collision-probability 1.0]
+        [--paired [--lengths 20 20 20]]
+Writes benchmarks/results/decomposition_scaling[_<method>][_paired].json.
 """
 
 import argparse
@@ -40,15 +49,26 @@ STRONG_BOX = (20.0, 20.0, 20.0)
 WEAK_SLAB = (10.0, 10.0, 5.0)
 
 
-def scene_dict(lengths, devices: int) -> dict:
+DT = 0.04
+
+
+def scene_dict(lengths, devices: int, method: str = "dpd", probability: float = 1.0) -> dict:
+    solvents = {
+        "dpd": ({"method": "dpd", "kT": 1.0, "gamma": 4.5}, {"dt": DT, "lambda": 0.65}),
+        "lowe_andersen": (
+            {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": probability / DT},
+            {"dt": DT},
+        ),
+    }
+    solvent, integrator = solvents[method]
     data = {
         "seed": 1,
         "precision": "float32",
         "box": {"lengths": list(lengths)},
         "particles": {"density": 3.0},
-        "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
+        "solvent": solvent,
         "pair": {"a": 25.0},
-        "integrator": {"dt": 0.04, "lambda": 0.65},
+        "integrator": integrator,
         "output": {"observables": ["temperature"]},
     }
     if devices > 1:
@@ -56,7 +76,48 @@ def scene_dict(lengths, devices: int) -> dict:
     return data
 
 
-def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
+def prepared(lengths, devices: int, method: str, probability: float):
+    """(simulation, state) of a configuration after 200 steps, buffers fitted."""
+    from jaxdpd.engine.build import build
+    from jaxdpd.run import driver
+    from jaxdpd.scene import Scene
+
+    simulation = build(Scene.from_dict(scene_dict(lengths, devices, method, probability)))
+    state = driver.run(simulation, simulation.init_fn(), 200, 100)  # leave the random start
+    return simulation, simulation.reallocate(state, None)  # buffers fitted to the liquid
+
+
+def paired_worker(lengths, devices: int, steps: int, rounds: int, method, probability) -> dict:
+    """The decomposed step against the single-device step of one scene, timed in one
+    process in alternating rounds (runs in a process with `devices` devices)."""
+    import jax
+
+    from jaxdpd.run import driver
+
+    runs = {d: prepared(lengths, d, method, probability) for d in (1, devices)}
+
+    def chunk(d):
+        simulation, state = runs[d]
+        return lambda: jax.block_until_ready(driver.run_chunk(simulation, state, steps)[0])
+
+    for d in runs:
+        chunk(d)()  # compile
+    best = {d: float("inf") for d in runs}
+    for _ in range(rounds):
+        for d in runs:
+            best[d] = min(best[d], best_of(chunk(d), 1))
+    return {
+        "method": method,
+        "devices": devices,
+        "N": runs[1][0].scene.n_particles,
+        "box": list(lengths),
+        "single_ms": 1e3 * best[1] / steps,
+        "split_ms": 1e3 * best[devices] / steps,
+        "split_vs_single": best[devices] / best[1],
+    }
+
+
+def worker(lengths, devices: int, steps: int, rounds: int, method="dpd", probability=1.0) -> dict:
     """Time one configuration (runs in a process with `devices` devices)."""
     import jax
     import numpy as np
@@ -64,13 +125,9 @@ def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
 
     from jaxdpd.decomposition import exchange
     from jaxdpd.decomposition.exchange import DOMAINS
-    from jaxdpd.engine.build import build
     from jaxdpd.run import driver
-    from jaxdpd.scene import Scene
 
-    simulation = build(Scene.from_dict(scene_dict(lengths, devices)))
-    state = driver.run(simulation, simulation.init_fn(), 200, 100)  # leave the random start
-    state = simulation.reallocate(state, None)  # buffers fitted to the liquid
+    simulation, state = prepared(lengths, devices, method, probability)
     chunk = driver.run_chunk(simulation, state, steps)[0]
     jax.block_until_ready(chunk)
     step_time = best_of(
@@ -96,7 +153,7 @@ def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
         rows = jax.tree.map(lambda leaf: leaf[0], rows)
         k = jax.lax.axis_index(DOMAINS)
         along = box.bind(state.box_state).frame_positions(rows.positions)[:, layout.axis]
-        local, _ = exchange.with_halos(
+        local, *_ = exchange.with_halos(
             rows,
             layout.view_coordinate(along, k),
             layout.width,
@@ -129,13 +186,14 @@ def worker(lengths, devices: int, steps: int, rounds: int) -> dict:
     return row
 
 
-def run_worker(lengths, devices: int, steps: int, rounds: int) -> dict:
+def run_worker(lengths, devices: int, *options, paired=False) -> dict:
     environment = {
         **os.environ,
         "XLA_FLAGS": f"--xla_force_host_platform_device_count={devices}",
         "PYTHONPATH": str(Path(__file__).resolve().parents[1]),
     }
-    command = [sys.executable, __file__, "--worker", json.dumps([lengths, devices, steps, rounds])]
+    flag = "--paired-worker" if paired else "--worker"
+    command = [sys.executable, __file__, flag, json.dumps([lengths, devices, *options])]
     completed = subprocess.run(command, capture_output=True, text=True, env=environment)
     if completed.returncode:
         raise RuntimeError(completed.stderr[-2000:])
@@ -147,10 +205,28 @@ def main() -> None:
     parser.add_argument("--devices", type=int, nargs="+", default=[1, 2, 4, 8])
     parser.add_argument("--steps", type=int, default=50)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--method", choices=("dpd", "lowe_andersen"), default="dpd")
+    parser.add_argument("--collision-probability", type=float, default=1.0)
+    parser.add_argument("--paired", action="store_true")
+    parser.add_argument("--lengths", type=float, nargs=3, default=STRONG_BOX)
     parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--paired-worker", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(worker(*json.loads(args.worker))))
+        return
+    if args.paired_worker:
+        print(json.dumps(paired_worker(*json.loads(args.paired_worker))))
+        return
+    options = (args.steps, args.rounds, args.method, args.collision_probability)
+    name = "decomposition_scaling" + ("" if args.method == "dpd" else f"_{args.method}")
+    if args.paired:
+        rows = []
+        for devices in (d for d in args.devices if d > 1):
+            rows.append(run_worker(list(args.lengths), devices, *options, paired=True))
+            print(json.dumps(rows[-1]), flush=True)
+        print_table(["method", "devices", "N", "single_ms", "split_ms", "split_vs_single"], rows)
+        write_json(name + "_paired", {"rows": rows, "steps": args.steps})
         return
     rows = []
     for kind in ("strong", "weak"):
@@ -159,7 +235,7 @@ def main() -> None:
                 lengths = STRONG_BOX
             else:
                 lengths = (WEAK_SLAB[0], WEAK_SLAB[1], WEAK_SLAB[2] * devices)
-            row = run_worker(lengths, devices, args.steps, args.rounds)
+            row = run_worker(lengths, devices, *options)
             row["scaling"] = kind
             rows.append(row)
             print(json.dumps(row), flush=True)
@@ -183,7 +259,7 @@ def main() -> None:
         "halo_share",
     ]
     print_table(columns, rows)
-    write_json("decomposition_scaling", {"rows": rows, "steps": args.steps})
+    write_json(name, {"rows": rows, "steps": args.steps})
 
 
 if __name__ == "__main__":

@@ -27,6 +27,8 @@ def scenes(case: str, length_y: float = 10.0) -> dict:
             }
         ],
     }
+    # Γ Δt = 1: every pair within r_c is thermalised, the longest sweeps.
+    lowe_andersen = {"method": "lowe_andersen", "kT": 1.0, "collision_frequency": 25.0}
     scene = {
         "seed": 3,
         "precision": "float64",
@@ -50,6 +52,20 @@ def scenes(case: str, length_y: float = 10.0) -> dict:
         "hoogerbrugge_koelman_shear": {
             "solvent": {"method": "hoogerbrugge_koelman"},
             "flow": {"kind": "shear", "shear_rate": 0.05},
+        },
+        "lowe_andersen": {**chains, "solvent": lowe_andersen, "integrator": {"dt": 0.04}},
+        "lowe_andersen_shear": {
+            **chains,
+            "solvent": lowe_andersen,
+            "integrator": {"dt": 0.04},
+            "flow": {"kind": "shear", "shear_rate": 0.5},
+        },
+        # No conservative force: every force is exactly zero on one device and on
+        # several, so the two runs differ only if the sweeps do.
+        "lowe_andersen_ideal_gas": {
+            "solvent": lowe_andersen,
+            "pair": {"a": 0.0},
+            "integrator": {"dt": 0.04},
         },
     }
     scene.update(cases[case])

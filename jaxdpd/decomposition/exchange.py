@@ -9,6 +9,8 @@ Each send reports how many rows it needed, so that an overflow can be reported a
 the buffers enlarged.
 """
 
+from dataclasses import dataclass
+
 import jax
 import jax.numpy as jnp
 
@@ -83,16 +85,22 @@ def select(rows: Rows, mask, capacity: int):
         (Rows of `capacity` rows, int32 number of rows selected, which may exceed
         the capacity: the surplus is dropped and must be reported).
     """
-    count = jnp.sum(mask, dtype=jnp.int32)
-    index = jnp.nonzero(mask, size=capacity, fill_value=mask.shape[0])[0]
+    index, count = pick(mask, capacity)
     return take(rows, index), count
 
 
-def shift(rows: Rows, towards: int, domains: int) -> Rows:
-    """Send every device's `rows` to its neighbour k + towards (towards = ±1) and
-    receive the rows of neighbour k − towards."""
+def pick(mask, capacity: int):
+    """(the first `capacity` row indices where `mask` holds, padded with the row
+    count; int32 number of rows where it holds)."""
+    count = jnp.sum(mask, dtype=jnp.int32)
+    return jnp.nonzero(mask, size=capacity, fill_value=mask.shape[0])[0], count
+
+
+def shift(rows, towards: int, domains: int):
+    """Send every device's `rows` (any pytree of arrays) to its neighbour
+    k + towards (towards = ±1) and receive those of neighbour k − towards."""
     permutation = [(k, (k + towards) % domains) for k in range(domains)]
-    return jax.tree.map(lambda leaf: jax.lax.ppermute(leaf, DOMAINS, permutation), rows)
+    return jax.lax.ppermute(rows, DOMAINS, permutation)
 
 
 def admit(rows: Rows, arrivals: Rows):
@@ -113,6 +121,44 @@ def admit(rows: Rows, arrivals: Rows):
     return admitted, jnp.maximum(count - jnp.sum(free, dtype=jnp.int32), 0)
 
 
+@dataclass(frozen=True)
+class HaloRoute:
+    """Which owned rows a device sent as halo copies, to repeat the exchange later.
+
+    Attributes:
+        down, up: (H,) the rows sent to neighbour k − 1 and k + 1 (R: none).
+        devices: D.
+    """
+
+    down: jnp.ndarray
+    up: jnp.ndarray
+    devices: int
+
+    def resend(self, values):
+        """`values` (a pytree of per-row arrays, owned rows then the copies from below
+        and from above, as `with_halos` lays them out) with every copy replaced by
+        its owner's current value: the same halo exchange, for these values only."""
+        copies = 2 * self.up.shape[0]
+
+        def sent(index):
+            # Row R (past the owned rows) is a free row: zeros.
+            return jax.tree.map(
+                lambda leaf: jnp.take(leaf[: leaf.shape[0] - copies], index, axis=0, fill_value=0),
+                values,
+            )
+
+        from_below = shift(sent(self.up), 1, self.devices)
+        from_above = shift(sent(self.down), -1, self.devices)
+        return jax.tree.map(
+            lambda leaf, below, above: jnp.concatenate(
+                [leaf[: leaf.shape[0] - copies], below, above]
+            ),
+            values,
+            from_below,
+            from_above,
+        )
+
+
 def with_halos(rows: Rows, along, width: float, halo: float, capacity: int, devices: int):
     """The device's rows followed by copies of its neighbours' rows near its faces.
 
@@ -125,12 +171,14 @@ def with_halos(rows: Rows, along, width: float, halo: float, capacity: int, devi
         capacity: rows per face for the copies.
     Returns:
         (rows + copies from below + copies from above (R + 2 capacity rows), int32
-        copies the busier face had to send: more than `capacity` were cut off).
+        copies the busier face had to send: more than `capacity` were cut off, the
+        `HaloRoute` of the copies sent).
     """
-    down, sent_down = select(rows, rows.present & (along < 2 * halo), capacity)
-    up, sent_up = select(rows, rows.present & (along >= width), capacity)
+    down_index, sent_down = pick(rows.present & (along < 2 * halo), capacity)
+    up_index, sent_up = pick(rows.present & (along >= width), capacity)
+    down, up = take(rows, down_index), take(rows, up_index)
     local = concatenate(rows, shift(up, 1, devices), shift(down, -1, devices))
-    return local, jnp.maximum(sent_down, sent_up)
+    return local, jnp.maximum(sent_down, sent_up), HaloRoute(down_index, up_index, devices)
 
 
 def hand_over(rows: Rows, owner, device, devices: int, capacity: int):

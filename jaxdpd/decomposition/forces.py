@@ -23,8 +23,9 @@ def identity_lookup(ids):
     (any row where absent) and whether it is there; the rows are sorted by identity
     once."""
     absent = jnp.iinfo(jnp.int32).max
-    order = jnp.argsort(jnp.where(ids >= 0, ids, absent))
-    ordered = ids[order]
+    keys = jnp.where(ids >= 0, ids, absent)  # free rows last, and sorted
+    order = jnp.argsort(keys)
+    ordered = keys[order]
 
     def row_of(wanted):
         place = jnp.minimum(jnp.searchsorted(ordered, wanted), ids.shape[0] - 1)

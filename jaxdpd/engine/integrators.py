@@ -116,7 +116,15 @@ def modified_velocity_verlet(
 
 
 def thermalized_velocity_verlet(
-    box, dt: float, interactions, thermalize, kT: float, dtype, masses=None, with_virial=False
+    box,
+    dt: float,
+    interactions,
+    thermalize,
+    kT: float,
+    dtype,
+    masses=None,
+    with_virial=False,
+    ownership=None,
 ):
     """Velocity Verlet followed by a pair thermalisation: Lowe–Andersen DPD (Lowe,
     Europhys. Lett. 47, 145 (1999); thesis table 2.1), with a = f/m:
@@ -148,8 +156,11 @@ def thermalized_velocity_verlet(
         masses: (N,) particle masses, or None for unit masses.
         with_virial: record.impulse_virial (3, 3) becomes the virial part "impulse"
             (thesis eq. 3.47, third term).
+        ownership: as in `modified_velocity_verlet` (None: one device).
     """
-    verlet = modified_velocity_verlet(box, dt, 0.5, interactions, kT, dtype, masses)
+    verlet = modified_velocity_verlet(
+        box, dt, 0.5, interactions, kT, dtype, masses, ownership=ownership
+    )
 
     def step(state):
         advanced = verlet(state)

@@ -47,6 +47,15 @@ own half: no scatter, and momentum is conserved to round-off.
 All random numbers are counter-based (jaxdpd.engine.noise): the selection uniform, the
 priority and the Gaussian ξ are separate streams of the pair hash, so a trajectory
 does not depend on the neighbour-list format, capacity or order.
+
+Rows and identities: the sweep runs over rows, which on one device are the
+particles.  In a decomposed run (jaxdpd.decomposition) a device's rows are its own
+particles, copies of its neighbours' near its faces and free rows; the step's
+`Ownership` (jaxdpd.engine.ownership) gives each row's identity, which keys the
+selection, the order and ξ (i XOR j above is of identities), and resends the copies'
+velocities and first pending pairs from their owners before every round, so each
+device applies exactly the pairs of the global round to its own particles
+(docs/scaling_out.md, "Lowe–Andersen").
 """
 
 from dataclasses import dataclass
@@ -58,6 +67,7 @@ import jax.numpy as jnp
 from jaxdpd import pytree
 from jaxdpd.engine import noise
 from jaxdpd.engine.integrators import thermalized_velocity_verlet
+from jaxdpd.engine.ownership import WHOLE_SYSTEM
 from jaxdpd.forces.pair_sums import pair_geometry
 from jaxdpd.scene_examples import chain_solution_example
 from jaxdpd.solvents import component
@@ -179,12 +189,13 @@ def relative_normal_velocity(velocity_i, velocity_j, unit, streaming=None):
 
 
 class _HalfEdges(NamedTuple):
-    """Selected pairs listed once per particle, sorted by (particle, order key).
+    """Selected pairs listed once per particle, sorted by (row, order key).
 
     Attributes:
-        i, j: (H,) owner and partner of each half-edge; i ≥ N past the selected ones.
-        tie_break: (H,) int32 i XOR j (partner = owner XOR tie_break).
-        start, stop: (N,) each particle's half-edges are [start, stop).
+        i, j: (H,) owner and partner row of each half-edge; i ≥ R (the row
+            count) past the selected ones.
+        tie_break: (H,) int32 identity XOR of the pair (i XOR j on one device).
+        start, stop: (R,) each row's half-edges are [start, stop).
     """
 
     i: jnp.ndarray
@@ -194,34 +205,50 @@ class _HalfEdges(NamedTuple):
     stop: jnp.ndarray
 
 
-def _half_edges(pair_i, pair_j, chosen, order_keys, n_particles: int) -> _HalfEdges:
-    """Sort the selected pairs' two half-edges by (owner, order key).
+def _half_edges(
+    pair_i, pair_j, chosen, order_keys, n_particles: int, rows: int, ownership
+) -> _HalfEdges:
+    """Sort the selected pairs' two half-edges by (owner row, order key).
 
     Args:
-        pair_i, pair_j: (P,) particle indices of the listed pairs.
+        pair_i, pair_j: (P,) rows of the listed pairs.
         chosen: (P,) bool, selected (each pair at most once).
-        order_keys: (P,) uint64 from `pair_order_keys`.
+        order_keys: (P,) uint64 from `pair_order_keys` (of the pairs' identities).
         n_particles: N.
+        rows: R, the rows of the arrays swept (N on one device).
+        ownership: the rows' `Ownership` (jaxdpd.engine.ownership): identities and
+            the row of an identity.
     """
-    index_bits, _ = order_key_bits(n_particles)
-    owner_shift = 64 - index_bits
+    index_bits, priority_bits = order_key_bits(n_particles)
+    index_mask = jnp.uint64((1 << index_bits) - 1)
+    owner_bits = rows.bit_length()
+    owners = jnp.concatenate([pair_i, pair_j])
+    selected_twice = jnp.concatenate([chosen, chosen])
     # Unselected half-edges all get the largest key: they sort last, as an owner
-    # ≥ N, and many equal keys sort faster than distinct ones.
+    # ≥ R, and many equal keys sort faster than distinct ones.
     unselected = jnp.uint64(2**64 - 1)
-
-    def keys(owner):
-        return jnp.where(chosen, (owner.astype(jnp.uint64) << owner_shift) | order_keys, unselected)
-
-    # One single-key sort: the owner is in the top bits, the order key below.
-    sorted_keys = jnp.sort(jnp.concatenate([keys(pair_i), keys(pair_j)]))
-    owner = (sorted_keys >> owner_shift).astype(jnp.int32)
-    tie_break = (sorted_keys & jnp.uint64((1 << index_bits) - 1)).astype(jnp.int32)
+    if owner_bits + priority_bits + index_bits <= 64:
+        # One single-key sort: the owner row in the top bits, the order key below.
+        shift = 64 - owner_bits
+        keys = (owners.astype(jnp.uint64) << shift) | jnp.concatenate([order_keys, order_keys])
+        sorted_keys = jnp.sort(jnp.where(selected_twice, keys, unselected))
+        owner = (sorted_keys >> shift).astype(jnp.int32)
+    else:
+        # More rows than the key has room for (a device's buffers beyond 2^bits):
+        # the same order from a sort on two keys.
+        owner, sorted_keys = jax.lax.sort(
+            (
+                jnp.where(selected_twice, owners, rows),
+                jnp.where(selected_twice, jnp.concatenate([order_keys, order_keys]), unselected),
+            ),
+            num_keys=2,
+        )
+    tie_break = (sorted_keys & index_mask).astype(jnp.int32)
+    partner_identity = ownership.identity_of(jnp.minimum(owner, rows - 1)) ^ tie_break
     ones = chosen.astype(jnp.int32)
-    counts = jax.ops.segment_sum(ones, pair_i, n_particles) + jax.ops.segment_sum(
-        ones, pair_j, n_particles
-    )
+    counts = jax.ops.segment_sum(ones, pair_i, rows) + jax.ops.segment_sum(ones, pair_j, rows)
     stop = jnp.cumsum(counts, dtype=jnp.int32)
-    return _HalfEdges(owner, owner ^ tie_break, tie_break, stop - counts, stop)
+    return _HalfEdges(owner, ownership.row_of(partner_identity), tie_break, stop - counts, stop)
 
 
 class _EdgeData(NamedTuple):
@@ -244,9 +271,12 @@ class _EdgeData(NamedTuple):
     share: object
 
 
-def _edge_data(bound_box, positions, edges: _HalfEdges, key, kT, masses, dtype) -> _EdgeData:
-    """Geometry, masses and Maxwellian targets of every half-edge (owner ≥ N: inert)."""
-    geometry = pair_geometry(bound_box, positions, edges, jnp.inf, True)
+def _edge_data(
+    bound_box, positions, edges: _HalfEdges, key, kT, masses, dtype, identities
+) -> _EdgeData:
+    """Geometry, masses and Maxwellian targets of every half-edge (owner ≥ R: inert);
+    `identities` as in `pair_geometry` (the targets are keyed by them)."""
+    geometry = pair_geometry(bound_box, positions, edges, jnp.inf, True, identities)
     unit = tuple(s * geometry.inverse_distance for s in geometry.separation)
     if masses is None:
         reduced_mass, share = 0.5, 0.5
@@ -254,7 +284,7 @@ def _edge_data(bound_box, positions, edges: _HalfEdges, key, kT, masses, dtype) 
         mass_i, mass_j = masses[geometry.i], masses[geometry.j]
         reduced_mass = mass_i * mass_j / (mass_i + mass_j)
         share = mass_j / (mass_i + mass_j)
-    target = target_relative_velocity(key, geometry.i, geometry.j, kT, reduced_mass, dtype)
+    target = target_relative_velocity(key, *geometry.identity_pairs(), kT, reduced_mass, dtype)
     return _EdgeData(unit, geometry.distance, geometry.streaming, target, reduced_mass, share)
 
 
@@ -263,31 +293,40 @@ def _per_edge(value, h):
     return value[h] if jnp.ndim(value) else value
 
 
-def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool):
+def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool, ownership):
     """The rounds of the sequential-equivalent sweep (see the module docstring).
 
     Args:
         edges: the sorted half-edges.
         data: their pair data.
-        velocities: (N, 3) before the sweep.
+        velocities: (R, 3) before the sweep.
         with_virial: also accumulate Σ r_ij ⊗ μ Δu e_ij.
+        ownership: the rows' `Ownership`: before each round the halo copies take
+            their owners' velocities and first pending pairs (`resend`), and the
+            rounds go on while any owned row, on any device, has a pending pair.
     Returns:
-        ((N, 3) velocities after the sweep, the (3, 3) Σ r_ij ⊗ μ_ij Δu_ij e_ij,
-        int32 number of rounds).
+        ((R, 3) velocities after the sweep (the owned rows'), the (3, 3)
+        Σ r_ij ⊗ μ_ij Δu_ij e_ij of the owned rows' halves, int32 number of rounds).
     """
     n, dtype = velocities.shape[0], velocities.dtype
-    ids = jnp.arange(n, dtype=jnp.int32)
     last = edges.i.shape[0] - 1
 
-    def pending(carry):
-        return jnp.any(carry[0] < edges.stop)
+    def going_on(head, ready):
+        """Whether an owned row on any device has a pending pair, and the last round
+        applied a pair somewhere.  It always does while pairs are pending (the
+        pending pair of smallest key is ready), unless a partner is missing from a
+        device, which the decomposition flags (StepError.DOMAIN_REACH): then the
+        sweep stops instead of waiting for it."""
+        return jnp.all(ownership.system_any(jnp.stack([head < edges.stop, ready], axis=1)))
 
     def round_(carry):
-        head, v, virial_parts, rounds = carry
+        head, v, virial_parts, rounds, _ = carry
         h = jnp.minimum(head, last)
-        # i XOR j of each particle's first pending pair (0: none pending).
+        # i XOR j (identities) of each particle's first pending pair (0: none
+        # pending); a copy takes its owner's, with its velocity.
         head_pair = jnp.where(head < edges.stop, edges.tie_break[h], 0)
-        partner = ids ^ head_pair
+        v, head_pair = ownership.resend((v, head_pair))
+        partner = edges.j[h]
         ready = (head_pair != 0) & (head_pair[partner] == head_pair)
         e = [component[h] for component in data.unit]
         streaming = None if data.streaming is None else data.streaming[h]
@@ -302,15 +341,17 @@ def _sweep(edges: _HalfEdges, data: _EdgeData, velocities, with_virial: bool):
                 part + weight * e[a] * e[b]
                 for part, (a, b) in zip(virial_parts, _VIRIAL_COMPONENTS, strict=True)
             )
-        return head + ready, v, virial_parts, rounds + 1
+        head = head + ready
+        return head, v, virial_parts, rounds + 1, going_on(head, ready)
 
     parts = tuple(jnp.zeros(n, dtype) for _ in _VIRIAL_COMPONENTS) if with_virial else ()
     # Velocity components as separate arrays (structure of arrays) in the loop.
     carry = (edges.start, tuple(velocities.T), parts, jnp.asarray(0, jnp.int32))
-    _, components, parts, rounds = jax.lax.while_loop(pending, round_, carry)
+    carry = carry + (going_on(edges.start, jnp.ones_like(edges.start, bool)),)
+    _, components, parts, rounds, _ = jax.lax.while_loop(lambda c: c[-1], round_, carry)
     virial = jnp.zeros((3, 3), dtype)
     for part, (a, b) in zip(parts, _VIRIAL_COMPONENTS[: len(parts)], strict=True):
-        total = jnp.sum(part)
+        total = ownership.share(part)
         virial = virial.at[a, b].set(total).at[b, a].set(total)
     return jnp.stack(components, axis=1), virial, rounds
 
@@ -325,6 +366,7 @@ def lowe_andersen_thermostat(
     half: bool,
     masses=None,
     with_virial: bool = False,
+    ownership=None,
 ):
     """The Lowe–Andersen thermalisation of one step (see the module docstring).
 
@@ -339,27 +381,35 @@ def lowe_andersen_thermostat(
         half: whether the neighbour lists hold each pair once (else twice).
         masses: (N,) particle masses, or None for unit masses (μ_ij = ½).
         with_virial: record the impulse virial (else zeros, nothing traced).
+        ownership: in a decomposed run, the device's rows (jaxdpd.engine.ownership);
+            None: one device holding the N particles in identity order.
     Returns:
         `thermalize(bound_box, positions, velocities, pair_list, key) ->
         (velocities, record)` with the box bound to its current state
-        (`box.bind(box_state)`), positions and (peculiar) velocities (N, 3), a
+        (`box.bind(box_state)`), positions and (peculiar) velocities (R, 3), a
         PairList covering r_T, the uint32 step key (jaxdpd.engine.noise.step_key) and a
-        `LoweAndersenRecord`.
+        `LoweAndersenRecord` (its impulse virial the owned rows' share, as every
+        virial part of a decomposed step).
     """
     n = n_particles
+    ownership = ownership or WHOLE_SYSTEM
     kT_ = jnp.asarray(kT, dtype)
     inverse_dt = jnp.asarray(1.0 / dt, dtype)
 
     def thermalize(bound_box, positions, velocities, pair_list, key):
-        pairs = pair_geometry(bound_box, positions, pair_list, cutoff, half)
-        chosen = pairs.within & selected(key, pairs.i, pairs.j, collision_probability, dtype)
+        identities = ownership.identities
+        pairs = pair_geometry(bound_box, positions, pair_list, cutoff, half, identities)
+        first, second = pairs.identity_pairs()
+        chosen = pairs.within & selected(key, first, second, collision_probability, dtype)
         if not half:  # a full list holds (i, j) and (j, i): keep one
             chosen = chosen & (pairs.i < pairs.j)
-        order_keys = pair_order_keys(key, pairs.i, pairs.j, n)
-        edges = _half_edges(pairs.i, pairs.j, chosen, order_keys, n)
-        data = _edge_data(bound_box, positions, edges, key, kT_, masses, dtype)
-        velocities, impulse_moment, rounds = _sweep(edges, data, velocities, with_virial)
-        pair_count = jnp.sum(chosen, dtype=jnp.int32)
+        order_keys = pair_order_keys(key, first, second, n)
+        rows = positions.shape[0]
+        edges = _half_edges(pairs.i, pairs.j, chosen, order_keys, n, rows, ownership)
+        data = _edge_data(bound_box, positions, edges, key, kT_, masses, dtype, identities)
+        velocities, impulse_moment, rounds = _sweep(edges, data, velocities, with_virial, ownership)
+        # Each selected pair has two half-edges, one at each of its particles.
+        pair_count = ownership.system_sum(edges.stop - edges.start) // 2
         return velocities, LoweAndersenRecord(impulse_moment * inverse_dt, pair_count, rounds)
 
     return thermalize
@@ -386,6 +436,7 @@ class LoweAndersen(component.SolventMethod):
     flows = ("shear", "planar_elongation")
     integrator_lambda = False
     uses_neighbor_list = True
+    decomposition = "forces_after_drift"
     heating_advice = (
         "lower the flow rate (the heating at rates near 1 and above hardly depends on "
         "Δt) or reduce integrator.dt; collision_frequency · dt must stay ≤ 1"
@@ -485,6 +536,7 @@ class LoweAndersen(component.SolventMethod):
             context.search.half,
             context.masses,
             context.with_virial,
+            context.ownership,
         )
 
         def thermalize(state, velocities):
@@ -502,6 +554,7 @@ class LoweAndersen(component.SolventMethod):
             context.dtype,
             context.masses,
             context.with_virial,
+            context.ownership,
         )
 
     def initial_solvent_state(self, scene, dtype):
