@@ -180,7 +180,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
     observables = scene_observables(scene)
     with_virial = any(component.needs_virial for component in observables)
     context = BuildContext(scene, box, serial.blocks, None, dtype, None)
-    samplers = [component.domain_sampler(context) for component in observables]
+    samplers = [s for s in (c.domain_sampler(context) for c in observables) if s is not None]
     check_drift = solvent.decomposition == "forces_after_drift"
     kT = scene.solvent.kT
 
@@ -196,7 +196,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
         along = layout.view_coordinate(_frame_coordinate(bound, rows.positions, axis), k)
         local, sent = exchange.with_halos(rows, along, width, halo, halo_capacity, devices)
         owned = jnp.concatenate([rows.present, jnp.zeros(2 * halo_capacity, bool)])
-        ownership = Ownership(owned, lambda x: jax.lax.psum(x, DOMAINS))
+        ownership = Ownership(owned, lambda x: jax.lax.psum(x, DOMAINS), local.ids)
         local_state = SimState(
             positions=local.positions,
             velocities=local.velocities,
