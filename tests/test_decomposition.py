@@ -144,10 +144,19 @@ def test_a_method_that_cannot_be_decomposed_is_refused_naming_those_that_can():
 
 def test_an_observable_not_measured_in_decomposed_runs_is_refused():
     scene = base_scene(
-        parallel={"devices": 4}, output={"observables": ["temperature", "rdf"], "rdf_max": 2.5}
+        parallel={"devices": 4},
+        output={"observables": ["temperature", "dynamics"]},
+        particles={
+            "density": 3.0,
+            "species": [{"name": "bead", "fraction": 0.2}, {"name": "solvent", "fraction": 0.8}],
+        },
+        polymers=[
+            {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 10.0}}
+        ],
     )
-    with pytest.raises(ValueError, match=r"output.observables: \['rdf'\]"):
+    with pytest.raises(ValueError, match=r"output.observables: \['dynamics'\]") as error:
         Scene.from_dict(scene)
+    assert "'conformation'" in str(error.value) and "docs/scaling_out.md" in str(error.value)
 
 
 def test_an_axis_the_box_cannot_cut_is_refused():

@@ -177,9 +177,10 @@ def test_one_device_domain_samples_equal_the_single_device_samples():
 
 
 def test_a_chain_reaching_past_half_a_sheared_box_gives_nan_sizes():
-    """In a flowing box a bead is read against its chain's first bead by minimum
-    image; a chain of 10 steps of 1.2 r_c reaches past half the 6 r_c box, so its
-    size samples are NaN (not silently wrong), while its springs are still read."""
+    """In a flowing box a bead is read against its chain's middle bead by minimum
+    image; chains of 10 steps of 1.5 r_c reach past half the 6 r_c box from there,
+    so their size samples are NaN (not silently wrong), while the springs are still
+    read."""
     single, domain = _samples_both_ways(_chain_scene({"kind": "shear", "shear_rate": 0.5}), 1.2)
     assert np.isnan(domain["bead/gyration_radius_sq"]) and np.isnan(domain["bead/end_to_end_sq"])
     assert np.isfinite(single["bead/gyration_radius_sq"])

@@ -7,24 +7,24 @@ devices' sums are added (`Ownership.across_devices`):
 
 - a spring Q_k = r_{k+1} − r_k is counted by the owner of bead k, which holds bead
   k + 1 too (a copy within the halo: the force step needs it), found by identity;
-- a bead's coordinate in its chain, x_i = r_i − r_1 unwrapped, is read against the
-  chain's first bead, whose wrapped position and image counters every device gets
-  from one sum over the devices (only its owner adds a nonzero term), as the box's
-  `spring_vectors` of (r_i − r_1, n_i − n_1): through the image counters in a box
-  at rest (exact at any length), by minimum image in a flowing box.  The minimum
-  image is right for every bead exactly when x_{k+1} − x_k = Q_k for every spring
-  (by induction from x_1 = 0: a wrong image differs by a lattice vector, longer
-  than 2 r_c in any box a scene accepts), which each spring's owner checks; where
-  it fails (a chain reaching more than half the box from its first bead) the
-  chain-size samples of that block are NaN for that step;
-- the centre of mass follows from a second sum per chain, then
-  R_g² = (1/M) Σ_i |x_i − x_cm|² from owned beads, R_e = x_M from the owner of the
-  last bead.
+- a bead's coordinate in its chain, x_i = r_i − r_a unwrapped, is read against the
+  chain's middle bead a = ⌊(M − 1)/2⌋, whose wrapped position and image counters
+  every device gets from one sum over the devices (only its owner adds a nonzero
+  term), as the box's `spring_vectors` of (r_i − r_a, n_i − n_a): through the
+  image counters in a box at rest (exact at any length), by minimum image in a
+  flowing box.  The minimum image is right for every bead exactly when
+  x_{k+1} − x_k = Q_k for every spring (by induction from x_a = 0: a wrong image
+  differs by a lattice vector, longer than 2 r_c in any box a scene accepts), which
+  each spring's owner checks; where it fails (a bead more than half the box from
+  its chain's middle bead) the chain-size samples of that block are NaN for that
+  step;
+- the centre of mass and R_e = x_M − x_1 follow from a second sum per chain, then
+  R_g² = (1/M) Σ_i |x_i − x_cm|² from owned beads.
 
 The samples are those of `chain_series.conformation_samples`, with the same names,
 equal to them up to the order of summation.  Per step a block sends 6 numbers per
-chain (first bead) and 3 per chain (centre of mass) through the collectives, and a
-few tensors.
+chain (middle bead) and 6 per chain (centre of mass, R_e) through the collectives,
+and a few tensors.
 """
 
 from dataclasses import dataclass
@@ -105,14 +105,14 @@ def domain_conformation_samples(bound_box, state, ownership, block, rows, law, c
     positions, image, total = state.positions, state.image, ownership.across_devices
     n_chains, beads, name = block.n_chains, block.beads, block.species
     chain, bead, counted = rows.chain, rows.bead, rows.counted
-    first = counted & (bead == 0)
+    middle = counted & (bead == (beads - 1) // 2)
     anchor_position, anchor_image = total(
         (
-            _per_chain(_mask(positions, first), chain, n_chains),
-            _per_chain(_mask(image, first), chain, n_chains),
+            _per_chain(_mask(positions, middle), chain, n_chains),
+            _per_chain(_mask(image, middle), chain, n_chains),
         )
     )
-    # Every row of the block (owned or a copy) read against its chain's first bead.
+    # Every row of the block (owned or a copy) read against its chain's middle bead.
     index = jnp.minimum(chain, n_chains - 1)
     offsets, _ = bound_box.spring_vectors(
         positions - anchor_position[index], image - anchor_image[index]
@@ -120,29 +120,29 @@ def domain_conformation_samples(bound_box, state, ownership, block, rows, law, c
     mismatch = offsets[rows.partner] - offsets - rows.springs
     wrong = rows.has_spring & (jnp.sum(mismatch * mismatch, axis=-1) > (0.5 * cutoff) ** 2)
     offsets = _mask(offsets, counted)
-    ends = _mask(offsets, counted & (bead == beads - 1))
-    end_lengths = jnp.sqrt(jnp.sum(ends * ends, axis=-1))
+    ends = _mask(offsets, counted & (bead == beads - 1)) - _mask(offsets, counted & (bead == 0))
     sums = total(
         {
             "centres": _per_chain(offsets, chain, n_chains),
+            "ends": _per_chain(ends, chain, n_chains),
             "bond_conformation": rows.springs.T @ rows.springs,
-            "end_to_end_conformation": ends.T @ ends,
-            "end_length": jnp.sum(end_lengths),
             "wrong": jnp.sum(wrong, dtype=jnp.int32),
         }
     )
     centres = sums["centres"] / beads
+    ends = sums["ends"]  # (C, 3), R_e of every chain
     spread = _mask(offsets - centres[index], counted)
     size = jnp.where(sums["wrong"] == 0, 1, jnp.nan).astype(positions.dtype)
     bond_conformation = sums["bond_conformation"] / (n_chains * (beads - 1))
-    end_to_end = sums["end_to_end_conformation"] * size / n_chains
+    end_to_end = ends.T @ ends * size / n_chains
     samples = {
         f"{name}/bond_length_sq": jnp.trace(bond_conformation),
         f"{name}/bond_conformation": bond_conformation,
     }
     if law.max_extension is not None:
         contour = (beads - 1) * law.max_extension
-        samples[f"{name}/fractional_extension"] = sums["end_length"] * size / (n_chains * contour)
+        end_length = jnp.sum(jnp.sqrt(jnp.sum(ends * ends, axis=-1)))
+        samples[f"{name}/fractional_extension"] = end_length * size / (n_chains * contour)
         samples[f"{name}/fractional_extension_sq"] = jnp.trace(end_to_end) / contour**2
     if beads > 2:
         samples[f"{name}/end_to_end_sq"] = jnp.trace(end_to_end)
