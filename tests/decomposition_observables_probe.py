@@ -12,6 +12,8 @@ import json
 import os
 import sys
 
+from decomposition_probe import scenes
+
 # A chain solution (20 % beads in chains of 8 beads) in a cubic box by default, so
 # that every observable that decomposes applies.
 OBSERVABLES = ["temperature", "pressure", "conformation", "profile", "rdf", "transverse_current"]
@@ -23,28 +25,13 @@ FLOWS = {
 
 
 def scene(case: str, lengths: list, steps: int, observables: list, bond: dict) -> dict:
-    """The single-device scene of a case (float64, seed 3, ρ = 3)."""
-    data = {
-        "seed": 3,
-        "precision": "float64",
-        "box": {"lengths": lengths},
-        "particles": {
-            "density": 3.0,
-            "species": [{"name": "bead", "fraction": 0.2}, {"name": "solvent", "fraction": 0.8}],
-        },
-        "polymers": [
-            {
-                "species": "bead",
-                "beads": 8,
-                "bond": bond,
-            }
-        ],
-        "solvent": {"method": "dpd", "kT": 1.0, "gamma": 4.5},
-        "pair": {"a": 25.0},
-        "integrator": {"dt": 0.04, "lambda": 0.65},
-        "run": {"steps": steps, "chunk": steps // 2, "equilibration": 0},
-        "output": {"observables": observables, "rdf_max": 2.0, "profile_bins": 8},
-    }
+    """The single-device scene of a case: tests/decomposition_probe.py's chain
+    solution (float64, seed 3, ρ = 3, 20 % beads in chains of 8) with `bond`."""
+    data = scenes("chains")
+    data["box"] = {"lengths": lengths}
+    data["polymers"][0]["bond"] = bond
+    data["run"] = {"steps": steps, "chunk": steps // 2, "equilibration": 0}
+    data["output"] = {"observables": observables, "rdf_max": 2.0, "profile_bins": 8}
     if FLOWS[case] is not None:
         data["flow"] = FLOWS[case]
     return data

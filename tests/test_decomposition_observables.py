@@ -15,15 +15,12 @@ XLA_FLAGS=--xla_force_host_platform_device_count=D (JAX fixes its CPU devices wh
 it starts).
 """
 
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from forced_devices import run_probe
 
 from jaxdpd.engine.ownership import Ownership
 from jaxdpd.engine.parameters import scene_parameters
@@ -40,20 +37,11 @@ TOLERANCE = 1e-9  # tests/test_decomposition.py: 20 steps of float64 round-off
 
 
 def probe(devices: int, case: str, lengths, max_extension: float, observables=None) -> dict:
-    environment = {**os.environ, "PYTHONPATH": str(PROBE.parent.parent)}
     arguments = ["--devices", str(devices), "--case", case, "--lengths", *map(str, lengths)]
     arguments += ["--max-extension", str(max_extension)]
     if observables:
         arguments += ["--observables", *observables]
-    completed = subprocess.run(
-        [sys.executable, str(PROBE), *arguments],
-        capture_output=True,
-        text=True,
-        env=environment,
-        timeout=1800,
-    )
-    assert completed.returncode == 0, completed.stderr[-3000:]
-    return json.loads(completed.stdout)
+    return run_probe(PROBE, arguments, timeout=1800)
 
 
 def check_equal_to_single_device(result: dict, expected_prefixes) -> None:
