@@ -16,7 +16,14 @@ from decomposition_probe import scenes
 
 # A chain solution (20 % beads in chains of 8 beads) in a cubic box by default, so
 # that every observable that decomposes applies.
-OBSERVABLES = ["temperature", "pressure", "conformation", "profile", "rdf", "transverse_current"]
+ALL_OBSERVABLES = [
+    "temperature",
+    "pressure",
+    "conformation",
+    "profile",
+    "rdf",
+    "transverse_current",
+]
 FLOWS = {
     "rest": None,
     "shear": {"kind": "shear", "shear_rate": 0.5},
@@ -57,32 +64,44 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--devices", type=int, required=True)
     parser.add_argument("--case", choices=sorted(FLOWS), required=True)
-    parser.add_argument("--lengths", type=float, nargs=3, default=[10.0, 10.0, 10.0])
+    parser.add_argument("--lengths", type=float, nargs=3, default=[7.2, 7.2, 7.2])
     parser.add_argument("--steps", type=int, default=20)
-    parser.add_argument("--observables", nargs="+", default=OBSERVABLES)
+    parser.add_argument("--observables", nargs="+", default=ALL_OBSERVABLES)
     parser.add_argument(
-        "--max-extension", type=float, default=1.5, help="FENE Q0; 0: Hookean springs"
+        "--max-extension", type=float, default=0.0, help="FENE Q0; 0: Hookean springs"
     )
     args = parser.parse_args()
     os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.devices}"
     import numpy as np
 
-    from jaxdpd.run.runner import prepare
+    from jaxdpd.engine.build import build
+    from jaxdpd.observables import OBSERVABLES
+    from jaxdpd.run import driver
     from jaxdpd.scene import Scene
 
     bond = {"law": "fene", "spring_constant": 10.0, "max_extension": args.max_extension}
     if not args.max_extension:
         bond = {"law": "hookean", "spring_constant": 10.0}
     data = scene(args.case, args.lengths, args.steps, args.observables, bond)
-    options = {"progress": False, "keep_series": True, "handle_signals": False}
-    runs = {
-        "single": prepare(Scene.from_dict(data), None, **options),
-        "split": prepare(
-            Scene.from_dict({**data, "parallel": {"devices": args.devices}}), None, **options
-        ),
+    simulations = {
+        "single": build(Scene.from_dict(data)),
+        "split": build(Scene.from_dict({**data, "parallel": {"devices": args.devices}})),
     }
-    summaries = {name: run.execute() for name, run in runs.items()}
-    series = {name: summary.series for name, summary in summaries.items()}
+    series, states, rdf = {}, {}, {}
+    for name, simulation in simulations.items():
+        chunks = []
+        # g(r) as the runner samples it: the chunk accumulator at every chunk end.
+        accumulator = OBSERVABLES.get("rdf").chunk_accumulator(simulation)
+
+        def on_chunk(result, chunks=chunks, accumulator=accumulator):
+            chunks.append(result.series)
+            if "rdf" in args.observables:
+                accumulator.observe(result.state)
+
+        chunk = simulation.scene.run.chunk
+        states[name] = driver.run(simulation, simulation.init_fn(), args.steps, chunk, on_chunk)
+        series[name] = {key: np.concatenate([c[key] for c in chunks]) for key in chunks[0]}
+        rdf[name] = accumulator.result()
     differences, non_finite = {}, {}
     for key, single in series["single"].items():
         split = series["split"].get(key)
@@ -95,16 +114,15 @@ def main() -> None:
         "differences": differences,
         "non_finite": non_finite,
         "split_only": sorted(set(series["split"]) - set(series["single"])),
-        "flags": int(summaries["split"].state.flags),
+        "flags": int(states["split"].flags),
     }
     if "rdf" in args.observables:
-        (_, single), (_, split) = summaries["single"].rdf, summaries["split"].rdf
+        (_, single), (_, split) = rdf["single"], rdf["split"]
         counted = np.isfinite(single)
         result["rdf_difference"] = float(np.max(np.abs(split[counted] - single[counted])))
         result["rdf_peak"] = float(np.max(single[counted]))
-    simulation = runs["split"].simulation
     result["springs_across_slabs"], result["chains_across_slabs"] = chains_across_devices(
-        summaries["split"].state, simulation.blocks
+        states["split"], simulations["split"].blocks
     )
     json.dump(result, sys.stdout)
 

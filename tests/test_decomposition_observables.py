@@ -149,7 +149,8 @@ def _samples_both_ways(scene, step_length: float):
     context = BuildContext(scene, box, blocks, None, jnp.float64, None)
     component = Conformation()
     _, single = component.sampler(context)(state, state)
-    everything = Ownership(jnp.ones(n, bool), lambda x: x, jnp.arange(n, dtype=jnp.int32))
+    identities = jnp.arange(n, dtype=jnp.int32)
+    everything = Ownership(jnp.ones(n, bool), lambda x: x, identities, lambda wanted: wanted)
     return single, component.domain_sampler(context)(everything, state)
 
 

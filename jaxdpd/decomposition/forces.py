@@ -15,8 +15,22 @@ import jax.numpy as jnp
 from jaxdpd.decomposition.slab_view import SlabState
 from jaxdpd.engine import errors
 from jaxdpd.engine.build import pair_term_parts
-from jaxdpd.engine.ownership import identity_lookup
 from jaxdpd.forces.pair_sums import pair_geometry, pair_sums
+
+
+def identity_lookup(ids):
+    """`row_of(wanted) -> (row, present)`: the row holding each identity of `wanted`
+    (any row where absent) and whether it is there; the rows are sorted by identity
+    once."""
+    absent = jnp.iinfo(jnp.int32).max
+    order = jnp.argsort(jnp.where(ids >= 0, ids, absent))
+    ordered = ids[order]
+
+    def row_of(wanted):
+        place = jnp.minimum(jnp.searchsorted(ordered, wanted), ids.shape[0] - 1)
+        return order[place], ordered[place] == wanted
+
+    return row_of
 
 
 def chain_bond_forces_by_identity(bound_box, positions, ids, row_of, owned, block, law, halo):

@@ -36,7 +36,7 @@ from jax.sharding import PartitionSpec as P
 from jaxdpd import pytree
 from jaxdpd.decomposition import exchange
 from jaxdpd.decomposition.exchange import DOMAINS, Rows
-from jaxdpd.decomposition.forces import domain_force_kernel
+from jaxdpd.decomposition.forces import domain_force_kernel, identity_lookup
 from jaxdpd.decomposition.layout import SlabLayout, buffer_sizes, slab_axis
 from jaxdpd.decomposition.requirements import halo_width
 from jaxdpd.decomposition.slab_view import SlabState, SlabView
@@ -196,7 +196,10 @@ def build_decomposed(scene) -> DecomposedSimulation:
         along = layout.view_coordinate(_frame_coordinate(bound, rows.positions, axis), k)
         local, sent = exchange.with_halos(rows, along, width, halo, halo_capacity, devices)
         owned = jnp.concatenate([rows.present, jnp.zeros(2 * halo_capacity, bool)])
-        ownership = Ownership(owned, lambda x: jax.lax.psum(x, DOMAINS), local.ids)
+        row_of = identity_lookup(local.ids)
+        ownership = Ownership(
+            owned, lambda x: jax.lax.psum(x, DOMAINS), local.ids, lambda wanted: row_of(wanted)[0]
+        )
         local_state = SimState(
             positions=local.positions,
             velocities=local.velocities,

@@ -6,7 +6,7 @@ its neighbours' particles near its faces (the halo) and free rows; a sum over th
 whole system then counts the owned rows only and adds the domains' parts with a
 collective.  The integrators take an `Ownership`, or None for a single device; the
 samplers of a decomposed run (`Observable.domain_sampler`) take one too, with the
-particle identity of every row, to find a bead's chain by identity.
+rows' particle identities, to find a bead's chain neighbour among the rows.
 """
 
 from collections.abc import Callable
@@ -23,13 +23,16 @@ class Ownership:
         owned: (R,) bool, the rows this device owns (traced).
         across_devices: `across_devices(x) -> x summed over the devices` (a psum
             over the mesh axis of the domains; x may be a pytree).
-        ids: (R,) int32 particle identity (scene index) of each row, −1 for a free
-            row, or None where the rows are not given identities.
+        identities: (R,) int32 particle identity of each row (−1: free row), or None
+            where rows are identities.
+        row_of: `row_of(identities) -> rows` holding those particles (present ones),
+            or None where rows are identities.
     """
 
     owned: jnp.ndarray
     across_devices: Callable
-    ids: jnp.ndarray | None = None
+    identities: jnp.ndarray | None = None
+    row_of: Callable | None = None
 
     def weights(self, dtype):
         """(R,) 1 for an owned row, 0 for the others."""
@@ -39,18 +42,3 @@ class Ownership:
         """Σ over the system's particles of a per-row quantity (R, ...)."""
         mask = self.owned.reshape(self.owned.shape + (1,) * (per_row.ndim - 1))
         return self.across_devices(jnp.sum(jnp.where(mask, per_row, 0), axis=0))
-
-
-def identity_lookup(ids):
-    """`row_of(wanted) -> (row, present)`: the row holding each identity of `wanted`
-    (any row where absent) and whether it is there; the rows are sorted by identity
-    once."""
-    absent = jnp.iinfo(jnp.int32).max
-    order = jnp.argsort(jnp.where(ids >= 0, ids, absent))
-    ordered = ids[order]
-
-    def row_of(wanted):
-        place = jnp.minimum(jnp.searchsorted(ordered, wanted), ids.shape[0] - 1)
-        return order[place], ordered[place] == wanted
-
-    return row_of

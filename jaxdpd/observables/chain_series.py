@@ -34,7 +34,6 @@ from jaxdpd.analysis.conformation import (
     gyration_radius_squared,
 )
 from jaxdpd.analysis.rheology import PART_PREFIX, conformation_components
-from jaxdpd.engine.ownership import identity_lookup
 from jaxdpd.forces.pair_laws import soft_repulsion
 from jaxdpd.geometry.chain_topology import chain_coordinates
 from jaxdpd.observables.component import (
@@ -212,10 +211,9 @@ class Conformation(Observable):
 
         def sample(ownership, state):
             bound_box = box.bind(state.box_state)
-            row_of = identity_lookup(ownership.ids)
             samples = {}
             for block in blocks:
-                rows = block_rows(bound_box, state, ownership, row_of, block)
+                rows = block_rows(bound_box, state, ownership, block)
                 law = block.law.with_parameters(state.parameters["bond"][block.species])
                 samples.update(
                     domain_conformation_samples(

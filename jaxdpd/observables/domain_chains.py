@@ -55,23 +55,22 @@ class BlockRows:
     partner: jnp.ndarray
 
 
-def block_rows(bound_box, state, ownership, row_of, block) -> BlockRows:
+def block_rows(bound_box, state, ownership, block) -> BlockRows:
     """The rows of `block` on one device and the springs its owned beads begin.
 
     Args:
         bound_box: the box at this step.
         state: the device's stepped SimState.
-        ownership: its `Ownership`, with the rows' identities.
-        row_of: `identity_lookup(ownership.ids)`.
+        ownership: its `Ownership`, with the rows' identities and `row_of`.
         block: a ChainBlock.
     """
-    ids, positions, image = ownership.ids, state.positions, state.image
+    ids, positions, image = ownership.identities, state.positions, state.image
     index = ids - block.first
     member = (ids >= block.first) & (ids < block.stop)
     chain = jnp.where(member, index // block.beads, block.n_chains)
     bead = index % block.beads
     counted = member & ownership.owned
-    partner, _ = row_of(ids + 1)
+    partner = ownership.row_of(ids + 1)
     has_spring = counted & (bead < block.beads - 1)
     springs, _ = bound_box.spring_vectors(positions[partner] - positions, image[partner] - image)
     springs = jnp.where(has_spring[:, None], springs, 0)
