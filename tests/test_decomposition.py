@@ -14,13 +14,10 @@ runs tests/decomposition_probe.py in a fresh process with
 XLA_FLAGS=--xla_force_host_platform_device_count=D.
 """
 
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from forced_devices import run_probe
 
 from jaxdpd.scene import Scene
 from jaxdpd.solvents import SOLVENTS
@@ -34,18 +31,9 @@ def probe(case: str, devices: int, steps: int = 20, equilibration: int = 0) -> d
     """The probe's comparison of `case` on `devices` slabs 2.5 r_c thick (as thick as
     the halo of a FENE chain, 1.5 + 0.8 r_c)."""
     length_y = 2.5 * devices
-    environment = {**os.environ, "PYTHONPATH": str(PROBE.parent.parent)}
     arguments = ["--devices", str(devices), "--case", case, "--steps", str(steps)]
     arguments += ["--length-y", str(length_y), "--equilibration", str(equilibration)]
-    completed = subprocess.run(
-        [sys.executable, str(PROBE), *arguments],
-        capture_output=True,
-        text=True,
-        env=environment,
-        timeout=900,
-    )
-    assert completed.returncode == 0, completed.stderr[-3000:]
-    return json.loads(completed.stdout)
+    return run_probe(PROBE, arguments)
 
 
 def check_equal_to_single_device(result: dict) -> None:
@@ -161,10 +149,19 @@ def test_a_method_that_cannot_be_decomposed_is_refused_naming_those_that_can():
 
 def test_an_observable_not_measured_in_decomposed_runs_is_refused():
     scene = base_scene(
-        parallel={"devices": 4}, output={"observables": ["temperature", "rdf"], "rdf_max": 2.5}
+        parallel={"devices": 4},
+        output={"observables": ["temperature", "dynamics"]},
+        particles={
+            "density": 3.0,
+            "species": [{"name": "bead", "fraction": 0.2}, {"name": "solvent", "fraction": 0.8}],
+        },
+        polymers=[
+            {"species": "bead", "beads": 4, "bond": {"law": "hookean", "spring_constant": 10.0}}
+        ],
     )
-    with pytest.raises(ValueError, match=r"output.observables: \['rdf'\]"):
+    with pytest.raises(ValueError, match=r"output.observables: \['dynamics'\]") as error:
         Scene.from_dict(scene)
+    assert "'conformation'" in str(error.value) and "docs/scaling_out.md" in str(error.value)
 
 
 def test_an_axis_the_box_cannot_cut_is_refused():

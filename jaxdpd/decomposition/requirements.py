@@ -42,7 +42,8 @@ def check_scene(scene) -> None:
         measured = [c.name for c in OBSERVABLES if c.decomposes]
         raise ValueError(
             f"output.observables: {refused} are not measured in a decomposed run "
-            f"(parallel.devices = {devices}); available there: {measured}"
+            f"(parallel.devices = {devices}); available there: {measured} "
+            "(docs/scaling_out.md, 'Observables', says what the others would take)"
         )
     if scene.spring_repulsion is not None:
         raise ValueError(

@@ -180,7 +180,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
     observables = scene_observables(scene)
     with_virial = any(component.needs_virial for component in observables)
     context = BuildContext(scene, box, serial.blocks, None, dtype, None)
-    samplers = [component.domain_sampler(context) for component in observables]
+    samplers = [s for s in (c.domain_sampler(context) for c in observables) if s is not None]
     check_drift = solvent.decomposition == "forces_after_drift"
     kT = scene.solvent.kT
     density = scene.n_particles / box.volume

@@ -9,7 +9,9 @@ collective.  The integrators take an `Ownership`, or None for a single device.
 A step that works in rounds within one step (the Lowe–Andersen sweep) also needs
 each row's particle identity and, between rounds, the copies brought up to date
 with their owners (`resend`); `WHOLE_SYSTEM` is the Ownership of a single device,
-where all of this is the identity.
+where all of this is the identity.  The samplers of a decomposed run
+(`Observable.domain_sampler`) take one too, with the rows' identities and `row_of`,
+to find a bead's chain neighbour among the rows.
 """
 
 from collections.abc import Callable
@@ -30,7 +32,7 @@ class Ownership:
         owned: (R,) bool, the rows this device owns (traced); None: every row (one
             device).
         across_devices: `across_devices(x) -> x summed over the devices` (a psum
-            over the mesh axis of the domains).
+            over the mesh axis of the domains; x may be a pytree).
         identities: (R,) int32 particle identity of each row (−1: free row), or None
             where rows are identities.
         row_of: `row_of(identities) -> rows` holding those particles (present ones).

@@ -42,6 +42,7 @@ from jaxdpd.observables.component import (
     steady_shear_rate,
     summary_row,
 )
+from jaxdpd.observables.domain_chains import block_rows, domain_conformation_samples
 from jaxdpd.observables.drag import giesekus_drag
 
 
@@ -102,10 +103,16 @@ def spring_pair_pressure(box, positions, block, strength, cutoff: float, volume:
         (3, 3) tensor (units of pressure).
     """
     springs = bond_vectors(chain_coordinates(box, positions, block, image)).reshape(-1, 3)
+    along = _repulsion_along(springs, strength, cutoff)
+    return jnp.einsum("k,ka,kb->ab", along, springs, springs) / volume
+
+
+def _repulsion_along(springs, strength, cutoff: float):
+    """(K,) a (1 − Q/r_c) / Q of each spring vector (K, 3): the repulsion across it
+    per unit of its vector."""
     length = jnp.sqrt(jnp.sum(springs * springs, axis=-1))
     weight = jnp.clip(1 - length / cutoff, 0, None)
-    along = soft_repulsion(weight, strength) / jnp.maximum(length, jnp.finfo(length.dtype).tiny)
-    return jnp.einsum("k,ka,kb->ab", along, springs, springs) / volume
+    return soft_repulsion(weight, strength) / jnp.maximum(length, jnp.finfo(length.dtype).tiny)
 
 
 def ideal_references(blocks, kT: float) -> dict:
@@ -145,6 +152,7 @@ class Conformation(Observable):
 
     name = "conformation"
     needs_polymers = True
+    decomposes = True
     units = {
         name: "r_c^2"
         for name in (
@@ -161,32 +169,65 @@ class Conformation(Observable):
         "fractional_extension_sq": "1",
     }
 
+    @staticmethod
+    def _strengths(scene, blocks) -> dict:
+        """{species: a of the species with itself} of the blocks whose
+        spring_pair_pressure is sampled (with "pressure" and a [pair]), else {}."""
+        if "pressure" not in scene.output.observables or scene.pair is None:
+            return {}
+        names = scene.species_names
+        return {
+            block.species: scene.pair.a[names.index(block.species)][names.index(block.species)]
+            for block in blocks
+        }
+
     def sampler(self, context):
         scene, box, blocks = context.scene, context.box, context.blocks
-        strengths = []  # (block, a of its species with itself)
-        if "pressure" in scene.output.observables and scene.pair is not None:
-            names = scene.species_names
-            strengths = [
-                (block, scene.pair.a[names.index(block.species)][names.index(block.species)])
-                for block in blocks
-            ]
+        strengths = self._strengths(scene, blocks)
 
         def sample(previous, state):
             bound_box = box.bind(state.box_state)
             samples = conformation_samples(
                 bound_box, state.positions, blocks, state.parameters, state.image
             )
-            for block, strength in strengths:
+            for block in (block for block in blocks if block.species in strengths):
                 samples[f"{block.species}/spring_pair_pressure"] = spring_pair_pressure(
                     bound_box,
                     state.positions,
                     block,
-                    strength,
+                    strengths[block.species],
                     scene.cutoff,
                     scene.volume,
                     state.image,
                 )
             return state, samples
+
+        return sample
+
+    def domain_sampler(self, context):
+        """The same samples in a decomposed run (jaxdpd.observables.domain_chains)."""
+        scene, box, blocks = context.scene, context.box, context.blocks
+        strengths = self._strengths(scene, blocks)
+
+        def sample(ownership, state):
+            bound_box = box.bind(state.box_state)
+            samples = {}
+            for block in blocks:
+                rows = block_rows(bound_box, state, ownership, block)
+                law = block.law.with_parameters(state.parameters["bond"][block.species])
+                samples.update(
+                    domain_conformation_samples(
+                        bound_box, state, ownership, block, rows, law, scene.cutoff
+                    )
+                )
+                if block.species in strengths:
+                    along = _repulsion_along(rows.springs, strengths[block.species], scene.cutoff)
+                    along = jnp.where(rows.has_spring, along, 0)
+                    stress = jnp.einsum("k,ka,kb->ab", along, rows.springs, rows.springs)
+                    samples[f"{block.species}/spring_pair_pressure"] = (
+                        ownership.across_devices(stress) / scene.volume
+                    )
+            return samples
 
         return sample
 

@@ -19,7 +19,9 @@ lists in `output.observables`.  It owns, as attributes and methods of one object
                      None (e.g. g(r), measured at chunk ends on the host)
     decomposes       it is measured in decomposed runs (jaxdpd.decomposition), by
                      `domain_sampler(context)`: `sample(ownership, state) ->
-                     samples` over one device's rows, summed over the devices
+                     samples` over one device's rows (owned, halo copies and free
+                     rows; `ownership` says which are owned and which particle each
+                     holds), summed over the devices, or None (no per-step sample)
     accumulates      it keeps on-device accumulators in SimState.observers (at most
                      one observable of a scene does), made by
                      `initial_accumulators(context, bound_box, positions, image)`
@@ -129,7 +131,7 @@ class Observable:
     def domain_sampler(self, context: BuildContext) -> Callable:
         """In a decomposed run (jaxdpd.decomposition; only when `decomposes`),
         `sample(ownership, state) -> samples` from one device's stepped rows, summed
-        over the devices with `ownership` (jaxdpd.engine.ownership)."""
+        over the devices with `ownership` (jaxdpd.engine.ownership), or None."""
         raise NotImplementedError(f"observable {self.name!r} is not measured in decomposed runs")
 
     def initial_accumulators(self, context: BuildContext, bound_box, positions, image):

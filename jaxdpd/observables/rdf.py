@@ -114,13 +114,19 @@ class RadialDistribution:
 
 class Rdf(Observable):
     """g(r), histogrammed on the host at chunk ends (`RadialDistribution`) and written
-    to /averages/rdf: no per-step sample."""
+    to /averages/rdf: no per-step sample.  A decomposed run's state gives its
+    particles in scene order (`DecomposedState.positions`), so g(r) is histogrammed
+    from the whole configuration there too (docs/scaling_out.md: what it costs)."""
 
     name = "rdf"
+    decomposes = True
     settings = (
         Setting("rdf_bins", 100, minimum=1, integer=True),
         Setting("rdf_max", 3.0, minimum=0, exclusive_minimum=True),
     )
+
+    def domain_sampler(self, context):
+        return None
 
     def chunk_accumulator(self, simulation):
         output = simulation.scene.output

@@ -206,6 +206,7 @@ class TransverseCurrent(Observable):
     output.current_modes (cubic boxes)."""
 
     name = "transverse_current"
+    decomposes = True
     settings = (Setting("current_modes", 3, minimum=1, integer=True),)
     units = {"transverse_current": "m r_c/τ"}  # Σ_i m_i v_ia e^{ik r_ib}: a momentum
 
@@ -229,5 +230,19 @@ class TransverseCurrent(Observable):
                 state.positions, state.velocities, masses, box.lengths, modes
             )
             return state, {"transverse_current": currents}
+
+        return sample
+
+    def domain_sampler(self, context):
+        """j summed over each device's owned rows (weights 1, others 0: unit masses),
+        then over the devices."""
+        lengths, modes = context.box.lengths, context.scene.output.current_modes
+
+        def sample(ownership, state):
+            weights = ownership.weights(state.velocities.dtype)
+            currents = transverse_currents(
+                state.positions, state.velocities, weights, lengths, modes
+            )
+            return {"transverse_current": ownership.across_devices(currents)}
 
         return sample
