@@ -60,6 +60,12 @@ def scenes(case: str, length_y: float = 10.0) -> dict:
             "integrator": {"dt": 0.04},
             "flow": {"kind": "shear", "shear_rate": 0.5},
         },
+        "lowe_andersen_elongation": {
+            **chains,
+            "solvent": lowe_andersen,
+            "integrator": {"dt": 0.04},
+            "flow": {"kind": "planar_elongation", "elongation_rate": 0.2},
+        },
         # No conservative force: every force is exactly zero on one device and on
         # several, so the two runs differ only if the sweeps do.
         "lowe_andersen_ideal_gas": {

@@ -83,6 +83,7 @@ def test_lowe_andersen_ideal_gas_on_four_devices_is_bit_identical_to_one_device(
         "hoogerbrugge_koelman_shear",
         "lowe_andersen",
         "lowe_andersen_shear",
+        "lowe_andersen_elongation",
         "lowe_andersen_ideal_gas",
     ],
 )
@@ -90,7 +91,14 @@ def test_decomposed_run_equals_one_device(case, devices):
     """Every decomposable solvent, bonds across slabs, both flowing boxes, 4 and 8 slabs."""
     result = probe(case, devices)
     check_equal_to_single_device(result)
-    if case in ("chains", "shear", "oscillatory", "lowe_andersen", "lowe_andersen_shear"):
+    if case in (
+        "chains",
+        "shear",
+        "oscillatory",
+        "lowe_andersen",
+        "lowe_andersen_shear",
+        "lowe_andersen_elongation",
+    ):
         assert result["bonds_across_slabs"] > 0
 
 
