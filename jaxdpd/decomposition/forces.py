@@ -73,7 +73,8 @@ def chain_bond_forces_by_identity(bound_box, positions, ids, row_of, owned, bloc
 
 
 def domain_force_kernel(box, search, terms, blocks, cutoff, with_virial, body_force, halo):
-    """`kernel(rows_ids, owned, origin) -> interactions` for one device's rows.
+    """`kernel(rows_ids, owned, origin, row_of) -> interactions` for one device's
+    rows, `row_of` their `identity_lookup` (built once per step by the caller).
 
     Args:
         box: the whole (static) box.
@@ -87,9 +88,8 @@ def domain_force_kernel(box, search, terms, blocks, cutoff, with_virial, body_fo
         halo: the halo width (bond partners are present within it).
     """
 
-    def kernel(ids, owned, origin):
+    def kernel(ids, owned, origin, row_of):
         present = ids >= 0
-        row_of = identity_lookup(ids) if blocks else None
 
         def interactions(positions, velocities, state, refresh_pairs: bool = True):
             bound = box.bind(state.box_state)

@@ -227,7 +227,7 @@ def build_decomposed(scene) -> DecomposedSimulation:
                 box,
                 domain_force_kernel(
                     box, search, terms, serial.blocks, scene.cutoff, with_virial, body_force, halo
-                )(local.ids, owned, origin),
+                )(local.ids, owned, origin, row_of),
                 None,
                 (0, rows_stepped),
                 search,
