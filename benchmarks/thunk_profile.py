@@ -1,0 +1,76 @@
+"""Where a compiled computation's time goes: wall time per XLA operation.
+
+XLA's CPU runtime records every operation it executes (a fusion, a sort, a
+scatter, a YNNPACK call) in JAX's profiler trace.  `thunk_times` runs a callable
+under `jax.profiler.trace` and sums those records by operation name, so the
+optimised program's costly fusions can be found by name in its HLO text
+(`jax.jit(f).lower(...).compile().as_text()`).  The times carry the profiler's own
+overhead (a few µs per operation) and the machine's load; a conditional's or a
+loop's record includes the operations of its branches or body, which are listed too.
+
+Usage (the DPD fluid's step at N = 3000, 100 steps; prints the top operations):
+    python benchmarks/thunk_profile.py --size 3000 --steps 100 --top 30
+"""
+
+import argparse
+import collections
+import gzip
+import json
+import re
+import tempfile
+from pathlib import Path
+
+import jax
+
+WRAPPERS = ("ThunkExecutor", "PjitFunction", "CommonPjRt")
+
+
+def thunk_times(function, *args) -> collections.Counter:
+    """{operation name: total µs} of one call of `function(*args)` (blocked on)."""
+    with tempfile.TemporaryDirectory() as directory:
+        with jax.profiler.trace(directory, create_perfetto_trace=True):
+            jax.block_until_ready(function(*args))
+        trace = next(Path(directory).rglob("*perfetto_trace.json.gz"))
+        events = json.load(gzip.open(trace))["traceEvents"]
+    totals = collections.Counter()
+    for event in events:
+        name = event.get("name", "")
+        if event.get("ph") != "X" or name.startswith("$") or name.startswith(WRAPPERS):
+            continue
+        totals[name] += event.get("dur", 0)
+    return totals
+
+
+def by_kind(totals: collections.Counter) -> collections.Counter:
+    """The same times summed over numbered copies (`wrapped_scatter.4` →
+    `wrapped_scatter`)."""
+    kinds = collections.Counter()
+    for name, microseconds in totals.items():
+        kinds[re.sub(r"[.\d]+$", "", name)] += microseconds
+    return kinds
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=3000)
+    parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--top", type=int, default=30)
+    args = parser.parse_args()
+
+    from dpd_throughput import equilibrated_fluid
+
+    from jaxdpd.run import driver
+
+    simulation, state = equilibrated_fluid(args.size)
+    state = driver.run(simulation, state, args.steps, args.steps)  # compiled, fitted
+    totals = thunk_times(lambda s: driver.run(simulation, s, args.steps, args.steps), state)
+    per_step = 1e-3 / args.steps
+    print(f"N = {args.size}: {sum(totals.values()) * per_step:.3f} ms per step in operations")
+    for title, table in (("by operation", totals), ("by kind", by_kind(totals))):
+        print(f"\n{title} (ms per step)")
+        for name, microseconds in table.most_common(args.top):
+            print(f"{microseconds * per_step:8.3f}  {name}")
+
+
+if __name__ == "__main__":
+    main()
