@@ -181,6 +181,40 @@ def test_three_point_increments_have_gaussian_moments():
     assert abs(joint - 1 / 36) < 4 * math.sqrt((1 / 36) * (35 / 36) / n)
 
 
+@pytest.mark.parametrize("dtype", [jnp.float64, jnp.float32])
+def test_gaussian_increments_have_exact_moments(dtype):
+    """Counter-based Gaussian increments (Box–Muller on jaxdpd.engine.noise bits) against
+    the exact moments of N(0, dt): E z = 0, E z^2 = dt, E z^4 = 3 dt^2, E z_a z_b = 0,
+    pooled over the three components of n dumbbells; tolerance 4 standard errors of
+    the sample mean (Var z = dt, Var z^2 = 2 dt^2, Var z^4 = 96 dt^4, Var z_a z_b = dt^2)."""
+    dt, n = 0.04, 200_000
+    z = np.asarray(wiener_increments(jax.random.key(5), 3, n, dt, dtype), np.float64)
+    assert z.shape == (n, 3) and np.all(np.isfinite(z))
+    count = z.size
+    assert abs(z.mean()) < 4 * math.sqrt(dt / count)
+    assert abs(np.mean(z**2) - dt) < 4 * math.sqrt(2 / count) * dt
+    assert abs(np.mean(z**4) - 3 * dt**2) < 4 * math.sqrt(96 / count) * dt**2
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        assert abs(np.mean(z[:, a] * z[:, b])) < 4 * dt / math.sqrt(n)
+    # each component alone has the variance (the Box–Muller radius and angle streams)
+    assert np.all(np.abs(np.mean(z**2, axis=0) - dt) < 4 * math.sqrt(2 / n) * dt)
+
+
+def test_increments_of_other_keys_and_steps_are_uncorrelated():
+    """Streams keyed by (key, step): different keys (a vmapped ensemble of keys) and
+    consecutive steps give uncorrelated increments (correlation within 4/sqrt(3n));
+    the same key and step give the same increments."""
+    n = 50_000
+    draw = jax.jit(lambda k, step: wiener_increments(k, step, n, 1.0, jnp.float64).ravel())
+    keys = jax.random.split(jax.random.key(9), 2)
+    z = np.asarray(jax.vmap(draw)(keys, jnp.asarray([4, 4])))
+    later = np.asarray(draw(keys[0], 5))
+    for other in (z[1], later):
+        assert abs(np.corrcoef(z[0], other)[0, 1]) < 4 / math.sqrt(3 * n)
+    again = np.asarray(draw(keys[0], 4))
+    np.testing.assert_array_equal(z[0], again)
+
+
 _sample = jax.jit(lambda key, b: equilibrium_state(key, FENE(b), 100_000).connector)
 
 
