@@ -20,6 +20,7 @@ from jaxdpd.brownian import (
     velocity_gradient,
     wiener_increments,
 )
+from jaxdpd.trigonometry import trisected_cosine
 
 
 def _poly_residual(length, r, h, b):
@@ -53,6 +54,20 @@ def test_fene_length_is_the_root_below_q0(r, h, b):
     assert _poly_residual(length, r, h, b) < 1e-13
     # the root lies below the Hookean value R/(1+h) (the FENE factor is >= 1)
     assert length <= r / (1 + h) + 1e-12 * (1 + r)
+
+
+def test_trisected_cosine_is_the_middle_root():
+    """trisected_cosine(x) = cos(arccos(x)/3 - 2 pi/3), the root in [-1/2, 1/2] of
+    4y^3 - 3y = x (the Viete step of FENE.implicit_length), against NumPy's float64
+    arccos and cos on [-1, 1] and near both ends.  Tolerance: the Chebyshev bound
+    4 M rho^-n / (rho - 1) of a degree-n = 18 series in s = sqrt((1-|x|)/2) on
+    [0, 1/sqrt 2], whose nearest singularity (s = 1) sets rho = 3.36; M ~ 1: 6e-10."""
+    x = np.concatenate(
+        [np.linspace(-1, 1, 100_001), 1 - np.logspace(-16, -1, 500), -1 + np.logspace(-16, -1, 500)]
+    )
+    y = np.asarray(jax.jit(trisected_cosine)(jnp.asarray(x)))
+    np.testing.assert_allclose(y, np.cos(np.arccos(x) / 3 - 2 * math.pi / 3), rtol=0, atol=1e-9)
+    assert np.all(np.abs(y) <= 0.5 + 1e-9)
 
 
 def test_fene_length_float32_and_extremes():
