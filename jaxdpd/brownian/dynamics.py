@@ -57,11 +57,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.brownian._checks import check_count, check_positive, float_dtype
+from jaxdpd.brownian.increments import NOISES, check_noise, wiener_increments
 from jaxdpd.brownian.springs import check_spring
-from jaxdpd.engine import noise as _noise
-from jaxdpd.trigonometry import sincos_small
-
-_SALT = 0xB7D5E1A3  # the Brownian increments' family of counter-based streams
 
 __all__ = [
     "DumbbellState",
@@ -160,91 +157,6 @@ def ottinger_step(q, dw, kappa, spring, dt):
     # As R -> 0 the length is R / (1 + h f(0)) = R / (1 + h) for both springs.
     scale = jnp.where(nonzero, length / r, 1 / (1 + h))
     return scale[..., None] * rhs, guard
-
-
-NOISES = ("gaussian", "three_point")
-
-
-def check_noise(noise) -> str:
-    """Return ``noise`` if it names a known increment distribution, else ValueError."""
-    if not isinstance(noise, str) or noise not in NOISES:
-        raise ValueError(f"noise must be one of {NOISES}, got {noise!r}")
-    return noise
-
-
-def noise_key(key, step):
-    """uint32 key of one step's increments: a hash of the PRNG key's words and ``step``.
-
-    ``key`` is a JAX PRNG key (typed, or the legacy uint32 array); different keys give
-    independent streams, so a vmap over keys runs independent ensembles.
-    """
-    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
-        key = jax.random.key_data(key)
-    words = jnp.ravel(key).astype(jnp.uint32)
-    seed = _noise.mix32(words[0] ^ jnp.uint32(_SALT))
-    for index in range(1, words.shape[0]):
-        seed = _noise.mix32(seed ^ _noise.mix32(words[index] + jnp.uint32(index)))
-    return _noise.step_key(seed, step)
-
-
-def _unit(bits, dtype):
-    """Uniform variate on (0, 1) from 32 bits: all 32 in float64, the top 24 (exact)
-    in float32; never 0 or 1 (safe for the logarithm)."""
-    if jnp.dtype(dtype).itemsize == 8:
-        return (bits.astype(dtype) + 0.5) * 2.0**-32
-    return _noise.bits_to_unit_interval(bits, dtype)
-
-
-def _circle_point(bits, dtype):
-    """``(cos theta, sin theta)`` of a uniform angle, from 32 bits.
-
-    The top 30 bits give ``phi`` uniform on ``(-pi/4, pi/4)`` (Taylor series to
-    ``phi^15``, jaxdpd.trigonometry.sincos_small): the point ``(cos phi, sin phi)``
-    of the right quarter of the circle.  Bit 1 flips the sign of the cosine (right or
-    left quarter) and bit 0 swaps the coordinates (top or bottom quarter): each
-    quarter with probability 1/4, so the angle is uniform.  No range reduction.
-    """
-    fraction = ((bits >> 2).astype(dtype) + 0.5) * 2.0**-30 - 0.5
-    sine, cosine = sincos_small(fraction * (jnp.pi / 2))
-    cosine = jnp.where((bits & 2) == 2, -cosine, cosine)
-    swap = (bits & 1) == 1
-    return jnp.where(swap, sine, cosine), jnp.where(swap, cosine, sine)
-
-
-def wiener_increments(key, step, n, dt, dtype, noise="gaussian"):
-    """``(n, 3)`` increments ``dW`` for step ``step``; counter-based in (key, step,
-    dumbbell, component).
-
-    Every variate is a function of the bits ``site_bits(noise_key(key, step), i, s)``
-    of dumbbell ``i`` and stream ``s`` (jaxdpd.engine.noise, the hash of the DPD pair
-    noise): nothing depends on how steps are chunked or dumbbells batched.
-
-    ``gaussian``: ``sqrt(dt) N(0, I)`` (exact Wiener increments) by Box–Muller from
-    four streams: radii ``sqrt(-2 ln u)`` from streams 0 and 2, angles from streams 1
-    and 3 (:func:`_circle_point`); components ``r0 cos, r0 sin, r2 cos``.
-
-    ``three_point``: each component is ``sqrt(3 dt) * {-1, 0, +1}`` with probabilities
-    ``{1/6, 2/3, 1/6}``.  Its moments up to fifth order equal those of ``N(0, dt)``,
-    which is what weak order two requires (Kloeden & Platen, *Numerical Solution of
-    SDEs* (1992), ch. 14), so stationary averages converge as
-    with Gaussian noise; it has no density (no likelihood-ratio estimator).  The three
-    components come from the base-6 digits of one 32-bit word (stream 0): each
-    probability is exact up to a relative bias below ``216 / 2^32 = 5e-8``.
-    """
-    if n * 4 >= 2**32:
-        raise ValueError(f"wiener_increments: n = {n} dumbbells exceed the 2^30 counters")
-    k = noise_key(key, step)
-    dumbbells = jnp.arange(n, dtype=jnp.uint32)
-    if noise == "gaussian":
-        words = [_noise.site_bits(k, dumbbells, stream) for stream in range(4)]
-        r0, r2 = (jnp.sqrt(-2 * jnp.log(_unit(words[s], dtype))) for s in (0, 2))
-        (c0, s0), (c2, _) = (_circle_point(words[s], dtype) for s in (1, 3))
-        return jnp.sqrt(dt) * jnp.stack([r0 * c0, r0 * s0, r2 * c2], axis=-1)
-    bits = _noise.site_bits(k, dumbbells, 0)
-    six = jnp.uint32(6)
-    digits = jnp.stack([bits % six, (bits // six) % six, (bits // jnp.uint32(36)) % six], -1)
-    sign = (digits == 5).astype(dtype) - (digits == 0).astype(dtype)
-    return jnp.sqrt(3 * dt) * sign
 
 
 def equilibrium_state(key, spring, n_dumbbells: int, dtype=jnp.float64, *, smooth=False):
