@@ -20,6 +20,8 @@ from jaxdpd.brownian import (
     velocity_gradient,
     wiener_increments,
 )
+from jaxdpd.brownian.increments import _log_unit
+from jaxdpd.trigonometry import trisected_cosine
 
 
 def _poly_residual(length, r, h, b):
@@ -53,6 +55,20 @@ def test_fene_length_is_the_root_below_q0(r, h, b):
     assert _poly_residual(length, r, h, b) < 1e-13
     # the root lies below the Hookean value R/(1+h) (the FENE factor is >= 1)
     assert length <= r / (1 + h) + 1e-12 * (1 + r)
+
+
+def test_trisected_cosine_is_the_middle_root():
+    """trisected_cosine(x) = cos(arccos(x)/3 - 2 pi/3), the root in [-1/2, 1/2] of
+    4y^3 - 3y = x (the Viete step of FENE.implicit_length), against NumPy's float64
+    arccos and cos on [-1, 1] and near both ends.  Tolerance: the Chebyshev bound
+    4 M rho^-n / (rho - 1) of a degree-n = 18 series in s = sqrt((1-|x|)/2) on
+    [0, 1/sqrt 2], whose nearest singularity (s = 1) sets rho = 3.36; M ~ 1: 6e-10."""
+    x = np.concatenate(
+        [np.linspace(-1, 1, 100_001), 1 - np.logspace(-16, -1, 500), -1 + np.logspace(-16, -1, 500)]
+    )
+    y = np.asarray(jax.jit(trisected_cosine)(jnp.asarray(x)))
+    np.testing.assert_allclose(y, np.cos(np.arccos(x) / 3 - 2 * math.pi / 3), rtol=0, atol=1e-9)
+    assert np.all(np.abs(y) <= 0.5 + 1e-9)
 
 
 def test_fene_length_float32_and_extremes():
@@ -179,6 +195,54 @@ def test_three_point_increments_have_gaussian_moments():
     # components are independent: the joint frequency of (+1, +1) is 1/36
     joint = np.mean((np.round(s[:, 0]) == 1) & (np.round(s[:, 1]) == 1))
     assert abs(joint - 1 / 36) < 4 * math.sqrt((1 / 36) * (35 / 36) / n)
+
+
+@pytest.mark.parametrize("dtype", [jnp.float64, jnp.float32])
+def test_gaussian_increments_have_exact_moments(dtype):
+    """Counter-based Gaussian increments (Box–Muller on jaxdpd.engine.noise bits) against
+    the exact moments of N(0, dt): E z = 0, E z^2 = dt, E z^4 = 3 dt^2, E z_a z_b = 0,
+    pooled over the three components of n dumbbells; tolerance 4 standard errors of
+    the sample mean (Var z = dt, Var z^2 = 2 dt^2, Var z^4 = 96 dt^4, Var z_a z_b = dt^2)."""
+    dt, n = 0.04, 200_000
+    z = np.asarray(wiener_increments(jax.random.key(5), 3, n, dt, dtype), np.float64)
+    assert z.shape == (n, 3) and np.all(np.isfinite(z))
+    count = z.size
+    assert abs(z.mean()) < 4 * math.sqrt(dt / count)
+    assert abs(np.mean(z**2) - dt) < 4 * math.sqrt(2 / count) * dt
+    assert abs(np.mean(z**4) - 3 * dt**2) < 4 * math.sqrt(96 / count) * dt**2
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        assert abs(np.mean(z[:, a] * z[:, b])) < 4 * dt / math.sqrt(n)
+    # each component alone has the variance (the Box–Muller radius and angle streams)
+    assert np.all(np.abs(np.mean(z**2, axis=0) - dt) < 4 * math.sqrt(2 / n) * dt)
+
+
+def test_float64_logarithm_of_the_box_muller_radius():
+    """The float64 ln u of the Gaussian increments (frexp and a truncated atanh series,
+    truncation < 1e-17) equals NumPy's log to a few units of round-off (relative 1e-15)
+    on the uniforms the 32-bit counters give, their extremes included."""
+    bits = np.random.default_rng(0).integers(0, 2**32, 100_000).astype(np.float64)
+    u = np.concatenate([bits, [0.0, 2.0**32 - 1, 2.0**31, 0.7071067811865476 * 2**32]]) + 0.5
+    u = u * 2.0**-32
+    np.testing.assert_allclose(
+        np.asarray(jax.jit(_log_unit)(jnp.asarray(u))), np.log(u), rtol=1e-15
+    )
+
+
+def test_increments_of_other_keys_and_steps_are_uncorrelated():
+    """Streams keyed by (key, step): different keys (a vmapped ensemble of keys) and
+    consecutive steps give uncorrelated increments (correlation within 4/sqrt(3n));
+    the same key and step give the same increments (bit for bit in the same program,
+    to round-off under vmap, where XLA may contract multiply-adds differently)."""
+    n = 50_000
+    draw = jax.jit(lambda k, step: wiener_increments(k, step, n, 1.0, jnp.float64).ravel())
+    keys = jax.random.split(jax.random.key(9), 2)
+    z = np.asarray(jax.vmap(draw)(keys, jnp.asarray([4, 4])))
+    later = np.asarray(draw(keys[0], 5))
+    for other in (z[1], later):
+        assert abs(np.corrcoef(z[0], other)[0, 1]) < 4 / math.sqrt(3 * n)
+    first = np.asarray(draw(keys[0], 4))
+    np.testing.assert_array_equal(first, np.asarray(draw(keys[0], 4)))
+    np.testing.assert_allclose(z[0], first, rtol=1e-14, atol=1e-15)
 
 
 _sample = jax.jit(lambda key, b: equilibrium_state(key, FENE(b), 100_000).connector)

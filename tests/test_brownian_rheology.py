@@ -56,7 +56,7 @@ def within(value, expected, sem, bias=0.0):
 
 
 LOW_DE = dict(
-    n_dumbbells=2048, dt=0.02, n_equilibrate=500, n_samples=80, sample_every=10,
+    n_dumbbells=4096, dt=0.02, n_equilibrate=500, n_samples=80, sample_every=10,
     variance_reduction=True, noise="three_point",
 )  # fmt: skip
 
@@ -64,7 +64,7 @@ LOW_DE = dict(
 @pytest.fixture(scope="module")
 def fene_low():
     """FENE b=50 in weak shear and weak planar elongation, variance-reduced (same-noise
-    twin at rest); 2048 dumbbells, 10 lambda_H equilibration, 16 lambda_H averaging.
+    twin at rest); 4096 dumbbells, 10 lambda_H equilibration, 16 lambda_H averaging.
     Both flows run in one vmapped, jitted call."""
     curves = flow_curves(
         jax.random.key(101),

@@ -39,11 +39,13 @@ increment is smaller than that distance, ``dt < b / (16 De^2)`` (3e-6 at De = 10
 b = 50).  Steps with ``De dt`` of order 10 remain bounded and finite but are
 inaccurate (the half-explicit spring force overshoots).
 
-Noise is counter-based: ``dW_n = sqrt(dt) * normal(fold_in(key, n))``, so a trajectory
-does not depend on how the steps are chunked, and an ensemble with the same key and a
-different ``kappa`` sees the same noise (used for variance reduction).  Three-point
+Noise is counter-based: ``dW_n`` of dumbbell ``i`` is a hash of (key, n, i, component)
+(:func:`wiener_increments`), so a trajectory does not depend on how the steps are
+chunked, and an ensemble with the same key and a different ``kappa`` sees the same
+noise (used for variance reduction).  Three-point
 increments (``noise="three_point"``, same moments to fifth order, weak order two) are
-3-5x cheaper to draw on CPU, where Gaussian generation dominates the step cost.
+cheaper to draw (one hashed word, no logarithm); docs/performance_solvents.md has the
+rates.
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.brownian._checks import check_count, check_positive, float_dtype
+from jaxdpd.brownian.increments import NOISES, check_noise, wiener_increments
 from jaxdpd.brownian.springs import check_spring
 
 __all__ = [
@@ -115,68 +118,45 @@ def cast_params(dtype, kappa, dt, spring):
     return kappa, dt, spring
 
 
+def _dot(a, b):
+    """``a . b`` over the last axis of length 3, written out (fuses with the step)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def _matvec(kappa, q):
+    """``kappa . q`` for ``(..., 3)`` vectors ``q``, written out (fuses with the step)."""
+    return jnp.stack([_dot(kappa[a], q) for a in range(3)], axis=-1)
+
+
 def ottinger_step(q, dw, kappa, spring, dt):
-    """One semi-implicit predictor–corrector step for a single dumbbell.
+    """One semi-implicit predictor–corrector step for dumbbells.
 
     Args:
-      q: ``(3,)`` connector ``Q_n`` (units ``sqrt(k_B T/H)``).
-      dw: ``(3,)`` Wiener increment, ``N(0, dt I)``.
+      q: ``(..., 3)`` connectors ``Q_n`` (units ``sqrt(k_B T/H)``): one dumbbell or
+        an ensemble.
+      dw: ``(..., 3)`` Wiener increments, ``N(0, dt I)``.
       kappa: ``(3, 3)`` velocity gradient (units ``1/lambda_H``).
       spring: :class:`Hookean` or :class:`FENE`.
       dt: time step (units ``lambda_H``).
 
     Returns:
-      ``(q_next, guard)``: ``(3,)`` connector ``Q_{n+1}`` and a bool (rounding guard
-      used).  Formula in the module docstring.
+      ``(q_next, guard)``: ``(..., 3)`` connectors ``Q_{n+1}`` and a bool per dumbbell
+      (rounding guard used).  Formula in the module docstring.  The products are
+      written out component by component so that XLA fuses the whole step into
+      elementwise loops (small dots go to a separate library call on the CPU).
     """
-    f = spring.force_factor(q @ q)
-    flow = kappa @ q
+    f = spring.force_factor(_dot(q, q))[..., None]
+    flow = _matvec(kappa, q)
     q_pred = q + (flow - 0.5 * f * q) * dt + dw
-    rhs = q + 0.5 * dt * (flow + kappa @ q_pred) - 0.25 * dt * f * q + dw
-    r2 = rhs @ rhs
+    rhs = q + 0.5 * dt * (flow + _matvec(kappa, q_pred)) - 0.25 * dt * f * q + dw
+    r2 = _dot(rhs, rhs)
     nonzero = r2 > 0
     r = jnp.sqrt(jnp.where(nonzero, r2, 1))
     h = 0.25 * dt
     length, guard = spring.implicit_length(r, h)
     # As R -> 0 the length is R / (1 + h f(0)) = R / (1 + h) for both springs.
     scale = jnp.where(nonzero, length / r, 1 / (1 + h))
-    return scale * rhs, guard
-
-
-NOISES = ("gaussian", "three_point")
-
-
-def check_noise(noise) -> str:
-    """Return ``noise`` if it names a known increment distribution, else ValueError."""
-    if not isinstance(noise, str) or noise not in NOISES:
-        raise ValueError(f"noise must be one of {NOISES}, got {noise!r}")
-    return noise
-
-
-def wiener_increments(key, step, n, dt, dtype, noise="gaussian"):
-    """``(n, 3)`` increments ``dW`` for step ``step``; counter-based in ``(key, step)``.
-
-    ``gaussian``: ``sqrt(dt) N(0, I)`` (exact Wiener increments).
-
-    ``three_point``: each component is ``sqrt(3 dt) * {-1, 0, +1}`` with probabilities
-    ``{1/6, 2/3, 1/6}``.  Its moments up to fifth order equal those of ``N(0, dt)``,
-    which is what weak order two requires (Kloeden & Platen, *Numerical Solution of
-    SDEs* (1992), ch. 14), so stationary averages converge as
-    with Gaussian noise; it has no density (no likelihood-ratio estimator).  The three
-    components come from the base-6 digits of one 32-bit word: each probability is
-    exact up to a relative bias below ``216 / 2^32 = 5e-8``.  3-4x cheaper on CPU.
-    """
-    k = jax.random.fold_in(key, step)
-    if noise == "gaussian":
-        return jnp.sqrt(dt) * jax.random.normal(k, (n, 3), dtype=dtype)
-    bits = jax.random.bits(k, (n,), dtype=jnp.uint32)
-    six = jnp.uint32(6)
-    digits = jnp.stack([bits % six, (bits // six) % six, (bits // jnp.uint32(36)) % six], -1)
-    sign = (digits == 5).astype(dtype) - (digits == 0).astype(dtype)
-    return jnp.sqrt(3 * dt) * sign
-
-
-_ensemble_step = jax.vmap(ottinger_step, in_axes=(0, 0, None, None, None))
+    return scale[..., None] * rhs, guard
 
 
 def equilibrium_state(key, spring, n_dumbbells: int, dtype=jnp.float64, *, smooth=False):
@@ -223,8 +203,8 @@ def state_from_connectors(connector, spring):
 def _advance(key, state, kappa, spring, dt, noise="gaussian"):
     q = state.connector
     dw = wiener_increments(key, state.step, q.shape[0], dt, q.dtype, noise)
-    q_new, guard = _ensemble_step(q, dw, kappa, spring, dt)
-    ext2 = jnp.sum(q_new**2, axis=-1) / spring.max_q2(q.dtype)
+    q_new, guard = ottinger_step(q, dw, kappa, spring, dt)
+    ext2 = _dot(q_new, q_new) / spring.max_q2(q.dtype)
     return DumbbellState(
         connector=q_new,
         step=state.step + 1,

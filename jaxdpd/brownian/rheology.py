@@ -300,7 +300,7 @@ def flow_curves(
       variance_reduction: subtract a same-noise twin ensemble at rest (module doc).
       common_noise: use the same initial ensemble and noise for every rate (smooth
         curves, correlated errors); default independent per rate.
-      noise: ``"gaussian"`` or ``"three_point"`` (weak order 2, 3-4x cheaper; see
+      noise: ``"gaussian"`` or ``"three_point"`` (weak order 2, cheaper; see
         :func:`jaxdpd.brownian.dynamics.wiener_increments`).
 
     Returns:

@@ -29,13 +29,13 @@ there, for any ``R`` and any ``h > 0``.  So the new length is always below ``Q_0
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import jax
 import jax.numpy as jnp
 
 from jaxdpd.brownian._checks import check_positive, float_dtype
 from jaxdpd.forces import bonds
+from jaxdpd.trigonometry import trisected_cosine
 
 __all__ = ["Hookean", "FENE", "check_spring"]
 
@@ -154,7 +154,7 @@ class FENE:
         q = -2 * r**3 / 27 + b * r * (2 - h) / 3
         m = 2 * jnp.sqrt(-p / 3)
         cos_arg = jnp.clip(3 * q / (p * m), -1, 1)
-        l_trig = m * jnp.cos(jnp.arccos(cos_arg) / 3 - 2 * math.pi / 3) + r / 3
+        l_trig = m * trisected_cosine(cos_arg) + r / 3  # cos(arccos(.)/3 - 2 pi/3)
         # large R: Newton on the gap u = 1 - l^2/b
         big = rho > 2
         r_big = jnp.where(big, r, 3 * sqrt_b)

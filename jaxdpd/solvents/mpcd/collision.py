@@ -103,12 +103,17 @@ def srd_relative_velocities(
     else:
         weights = masses
         momenta = masses[:, None] * frame_velocities
-    totals = cell_totals(jnp.concatenate([weights[:, None], momenta], axis=1), cell, n_cells)
-    # Empty cells have zero mass; their (unused) mean is set to 0 instead of 0/0.
-    cell_mass = totals[:, :1]
-    mean = totals[:, 1:] / jnp.where(cell_mass > 0, cell_mass, 1)
+    # One per-cell table (mass, momentum, axis), the axes written before the sums are
+    # scattered in: the scatter's output is materialised, so each cell's axis is
+    # hashed once.  Computed after the scatter, XLA fuses the hash into the gather
+    # below and recomputes it for every particle and column (half the step).
     axes = random_axes(key, jnp.arange(n_cells, dtype=jnp.uint32), dtype)
-    per_particle = jnp.concatenate([mean, axes], axis=1)[cell]
+    table = jnp.concatenate([jnp.zeros((n_cells, 4), dtype), axes], axis=1)
+    table = table.at[cell, :4].add(jnp.concatenate([weights[:, None], momenta], axis=1))
+    # Empty cells have zero mass; their (unused) mean is set to 0 instead of 0/0.
+    cell_mass = table[:, :1]
+    mean = table[:, 1:4] / jnp.where(cell_mass > 0, cell_mass, 1)
+    per_particle = jnp.concatenate([mean, table[:, 4:]], axis=1)[cell]
     relative = frame_velocities - per_particle[:, :3]
     return relative, rotate(relative, per_particle[:, 3:], cos_angle, sin_angle)
 

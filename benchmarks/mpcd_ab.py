@@ -1,0 +1,84 @@
+"""MPCD step rate: this tree's collision against a base tree's, alternating in one process.
+
+The base's `jaxdpd/solvents/mpcd/collision.py` is loaded as a separate module (the
+cells and noise it imports are this tree's) and put in place of this tree's SRD
+collision while the base step compiles.  Both run the scene of
+benchmarks/mpcd_throughput.py (ρ = 10, α = 130°, h = 0.1, temperature observed) in
+compiled chunks, in alternating rounds; the velocities after one chunk from the same
+state are compared bit for bit.
+
+    git worktree add --detach /tmp/base <commit>
+    python benchmarks/mpcd_ab.py --base /tmp/base [--size 100000] [--rounds 6]
+"""
+
+import argparse
+import importlib.util
+import statistics
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+from mpcd_throughput import solvent_scene
+
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
+from jaxdpd.solvents.mpcd import step as mpcd_step_module
+
+
+def load_base_collision(root: Path):
+    """The base tree's MPCD collision module, under another name."""
+    path = root / "jaxdpd" / "solvents" / "mpcd" / "collision.py"
+    spec = importlib.util.spec_from_file_location("base_mpcd_collision", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def compiled_chunk(scene, steps: int, collision_module=None):
+    """(compiled chunk, initial state); with `collision_module`'s SRD collision if given.
+    `build` is cached per scene, so its uncached function is called."""
+    saved = mpcd_step_module.srd_collision
+    if collision_module is not None:
+        mpcd_step_module.srd_collision = collision_module.srd_collision
+    try:
+        simulation = build.__wrapped__(scene)
+        state = simulation.init_fn()
+        return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
+    finally:
+        mpcd_step_module.srd_collision = saved
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--base", type=Path, required=True)
+    parser.add_argument("--size", type=int, default=100_000)
+    parser.add_argument("--precision", default="float32")
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--rounds", type=int, default=6)
+    args = parser.parse_args()
+    scene = solvent_scene(args.size, args.precision)
+    base_chunk, _ = compiled_chunk(scene, args.steps, load_base_collision(args.base))
+    this_chunk, state = compiled_chunk(scene, args.steps)
+    runs = {"base": base_chunk, "this": this_chunk}
+    (base_state, _), (this_state, _) = runs["base"](state), runs["this"](state)
+    identical = np.array_equal(np.asarray(base_state.velocities), np.asarray(this_state.velocities))
+    n = scene.n_particles
+    rates, ratios = {"base": [], "this": []}, []
+    for index in range(args.rounds):
+        for name in ("base", "this") if index % 2 == 0 else ("this", "base"):
+            start = time.perf_counter()
+            jax.block_until_ready(runs[name](state))
+            rates[name].append(n * args.steps / (time.perf_counter() - start))
+        ratios.append(rates["this"][-1] / rates["base"][-1])
+    print(
+        f"N = {n} {args.precision}: velocities after {args.steps} steps bit-identical: "
+        f"{identical}; base {statistics.median(rates['base']):.3g}/s, this "
+        f"{statistics.median(rates['this']):.3g}/s, this/base median "
+        f"{statistics.median(ratios):.2f} "
+        f"(rounds: {' '.join(f'{r:.2f}' for r in ratios)})"
+    )
+
+
+if __name__ == "__main__":
+    main()
