@@ -47,6 +47,8 @@ import numpy as np
 from jaxdpd.solvents.lattice_boltzmann import counter_noise
 from jaxdpd.solvents.lattice_boltzmann.lattice import (
     FLUCTUATING_MODES,
+    GHOST_MODES,
+    HYDRODYNAMIC_MODES,
     INVERSE_MODE_BASIS,
     MODE_BASIS,
     MODE_NORMS,
@@ -128,9 +130,10 @@ class FluidParameters:
         return self.population_variance / self.density**2
 
 
-def modes(populations):
-    """m = E f over the leading axis: (19, ...) → (19, ...)."""
-    basis = jnp.asarray(MODE_BASIS, populations.dtype)
+def modes(populations, count: int = N_VELOCITIES):
+    """The first `count` modes m_k = Σ_i e_ki f_i over the leading axis: (19, ...) →
+    (count, ...)."""
+    basis = jnp.asarray(MODE_BASIS[:count], populations.dtype)
     return jnp.einsum("ki,i...->k...", basis, populations)
 
 
@@ -176,8 +179,7 @@ def stress_modes(a, b):
 def mass_and_momentum(populations):
     """Σ_i f_i (n_x, n_y, n_z) and the lattice momentum density j = Σ_i f_i c_i (3, ...)
     of populations or of their deviations (then the first is ρ − ρ₀; j is the same)."""
-    basis = jnp.asarray(MODE_BASIS[:4], populations.dtype)
-    moments = jnp.einsum("ki,i...->k...", basis, populations)
+    moments = modes(populations, 4)
     return moments[0], moments[1:]
 
 
@@ -242,7 +244,7 @@ def lattice_update(
     rest_density = jnp.asarray(parameters.density, dtype)
 
     def update(deviations, impulse_density, key, boundary=()):
-        m = modes(deviations)
+        m = modes(deviations, len(HYDRODYNAMIC_MODES))  # a ghost's m* is its noise alone
         density, momentum = rest_density + m[0], m[1:4]
         impulse = (impulse_to_lattice * impulse_density).astype(dtype)
         velocity = (momentum + 0.5 * impulse) / density
@@ -254,8 +256,9 @@ def lattice_update(
         )
         relaxed = [m[:1], momentum + impulse, stress]
         if thermal:
-            relaxed = jnp.concatenate([*relaxed, jnp.zeros_like(m[10:])])
-            xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape(m[4:].shape)
+            nodes = deviations.shape[1:]
+            relaxed = jnp.concatenate([*relaxed, jnp.zeros((len(GHOST_MODES), *nodes), dtype)])
+            xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape((-1, *nodes))
             relaxed = relaxed.at[4:].add(amplitudes * xi)
         else:  # the ghosts relax to zero: transform back the 10 hydrodynamic modes only
             relaxed = jnp.concatenate(relaxed)
