@@ -47,7 +47,6 @@ import numpy as np
 from jaxdpd.solvents.lattice_boltzmann import counter_noise
 from jaxdpd.solvents.lattice_boltzmann.lattice import (
     FLUCTUATING_MODES,
-    GHOST_MODES,
     HYDRODYNAMIC_MODES,
     INVERSE_MODE_BASIS,
     MODE_BASIS,
@@ -238,7 +237,11 @@ def lattice_update(
     if thermal:
         fluctuating = np.asarray(FLUCTUATING_MODES)
         amplitude = np.sqrt((1 - gammas[fluctuating] ** 2) * parameters.mode_variances[fluctuating])
-        amplitudes = jnp.asarray(amplitude, dtype).reshape(-1, 1, 1, 1)
+        # f* = E⁻¹ m* in one dot: the 10 relaxed hydrodynamic modes, then the noise of
+        # modes 4-18 as 15 more columns (a ghost's m* is its noise alone)
+        hydrodynamic = INVERSE_MODE_BASIS[:, : len(HYDRODYNAMIC_MODES)]
+        noise = INVERSE_MODE_BASIS[:, fluctuating] * amplitude
+        noisy_inverse = jnp.asarray(np.concatenate([hydrodynamic, noise], axis=1), dtype)
         draw = counter_noise.NOISE_LAWS[noise_law]
 
     rest_density = jnp.asarray(parameters.density, dtype)
@@ -254,18 +257,16 @@ def lattice_update(
             + stress_gammas * (m[4:10] - equilibrium)
             + (1 + stress_gammas) * stress_modes(velocity, impulse)
         )
-        relaxed = [m[:1], momentum + impulse, stress]
+        relaxed = jnp.concatenate([m[:1], momentum + impulse, stress])
         if thermal:
-            nodes = deviations.shape[1:]
-            relaxed = jnp.concatenate([*relaxed, jnp.zeros((len(GHOST_MODES), *nodes), dtype)])
-            xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape((-1, *nodes))
-            relaxed = relaxed.at[4:].add(amplitudes * xi)
-        else:  # the ghosts relax to zero: transform back the 10 hydrodynamic modes only
-            relaxed = jnp.concatenate(relaxed)
-        if sheared_stream is None:
-            streamed = stream(populations_from_modes(relaxed))
+            xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape((-1, *m.shape[1:]))
+            modes_and_noise = jnp.concatenate([relaxed, xi])
+            post_collision = jnp.einsum("ik,k...->i...", noisy_inverse, modes_and_noise)
         else:
             post_collision = populations_from_modes(relaxed)
+        if sheared_stream is None:
+            streamed = stream(post_collision)
+        else:
             streamed = sheared_stream(post_collision, density, relaxed[1:4], *boundary)
         new_mass, new_momentum = mass_and_momentum(streamed)
         new_density = rest_density + new_mass
