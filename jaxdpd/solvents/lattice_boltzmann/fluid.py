@@ -41,6 +41,7 @@ the per-cent level; the deviations keep that relative error at round-off.
 
 from dataclasses import dataclass
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -143,14 +144,36 @@ def populations_from_modes(mode_values):
     return jnp.einsum("ik,k...->i...", inverse, mode_values)
 
 
-def stream(populations):
-    """f_i(r + c_i) ← f_i(r) on the periodic lattice; (19, n_x, n_y, n_z)."""
-    return jnp.stack(
-        [
-            jnp.roll(populations[i], tuple(int(c) for c in VELOCITIES[i]), axis=(0, 1, 2))
-            for i in range(N_VELOCITIES)
-        ]
-    )
+def _wrapped_pieces(shift: int, n: int):
+    """(source slice, destination start) pairs that move a periodic axis of n nodes by
+    `shift` ∈ {−1, 0, 1}: the bulk, and the plane that wraps around."""
+    if shift == 0:
+        return [(slice(0, n), 0)]
+    if shift == 1:
+        return [(slice(0, n - 1), 1), (slice(n - 1, n), 0)]
+    return [(slice(1, n), 0), (slice(0, 1), n - 1)]
+
+
+def stream(populations, into=None):
+    """f_i(r + c_i) ← f_i(r) on the periodic lattice; (19, n_x, n_y, n_z).
+
+    The shifted blocks (1, 2 or 4 per population: the bulk and the wrapped planes) are
+    written by in-place slice updates of `into`, an array of the populations' shape
+    whose values are no longer needed (e.g. the pre-collision populations of the same
+    step); every element is overwritten.  XLA:CPU runs these updates as plain copies,
+    where `jnp.roll` and `jnp.stack` are concatenates that run at about a third of the
+    copy rate (docs/performance_solvents.md).  Without `into`, a copy of the
+    populations serves as the buffer.
+    """
+    out = populations if into is None else into
+    n_x, n_y, n_z = populations.shape[1:]
+    for i, (c_x, c_y, c_z) in enumerate(VELOCITIES):
+        for source_x, x in _wrapped_pieces(int(c_x), n_x):
+            for source_y, y in _wrapped_pieces(int(c_y), n_y):
+                for source_z, z in _wrapped_pieces(int(c_z), n_z):
+                    block = populations[i : i + 1, source_x, source_y, source_z]
+                    out = jax.lax.dynamic_update_slice(out, block, (i, x, y, z))
+    return out
 
 
 def stress_modes(a, b):
@@ -177,9 +200,21 @@ def stress_modes(a, b):
 
 def mass_and_momentum(populations):
     """Σ_i f_i (n_x, n_y, n_z) and the lattice momentum density j = Σ_i f_i c_i (3, ...)
-    of populations or of their deviations (then the first is ρ − ρ₀; j is the same)."""
-    moments = modes(populations, 4)
-    return moments[0], moments[1:]
+    of populations or of their deviations (then the first is ρ − ρ₀; j is the same).
+
+    Sums of the populations rather than a 4 × 19 dot: after `stream`'s slice updates,
+    XLA:CPU copied the 19 populations two or three times to feed a dot's reshaped
+    operand (docs/performance_solvents.md)."""
+
+    def total(indices):
+        return sum((populations[i] for i in indices[1:]), populations[indices[0]])
+
+    momentum = [
+        total(np.flatnonzero(VELOCITIES[:, axis] > 0))
+        - total(np.flatnonzero(VELOCITIES[:, axis] < 0))
+        for axis in range(3)
+    ]
+    return total(range(N_VELOCITIES)), jnp.stack(momentum)
 
 
 def equilibrium_deviations(density, velocity, rest_density: float):
@@ -265,7 +300,7 @@ def lattice_update(
         else:
             post_collision = populations_from_modes(relaxed)
         if sheared_stream is None:
-            streamed = stream(post_collision)
+            streamed = stream(post_collision, into=deviations)
         else:
             streamed = sheared_stream(post_collision, density, relaxed[1:4], *boundary)
         new_mass, new_momentum = mass_and_momentum(streamed)
