@@ -160,10 +160,10 @@ def stream(populations, into=None):
     The shifted blocks (1, 2 or 4 per population: the bulk and the wrapped planes) are
     written by in-place slice updates of `into`, an array of the populations' shape
     whose values are no longer needed (e.g. the pre-collision populations of the same
-    step); every element is overwritten.  XLA:CPU runs these updates as plain copies,
-    where `jnp.roll` and `jnp.stack` are concatenates that run at about a third of the
-    copy rate (docs/performance_solvents.md).  Without `into`, a copy of the
-    populations serves as the buffer.
+    step); every element is overwritten.  XLA:CPU runs these updates as in-place
+    copies, where `jnp.roll` and `jnp.stack` are slower concatenates
+    (docs/performance_solvents.md).  Without `into`, a copy of the populations serves
+    as the buffer.
     """
     out = populations if into is None else into
     n_x, n_y, n_z = populations.shape[1:]
@@ -202,9 +202,9 @@ def mass_and_momentum(populations):
     """Σ_i f_i (n_x, n_y, n_z) and the lattice momentum density j = Σ_i f_i c_i (3, ...)
     of populations or of their deviations (then the first is ρ − ρ₀; j is the same).
 
-    Sums of the populations rather than a 4 × 19 dot: after `stream`'s slice updates,
-    XLA:CPU copied the 19 populations two or three times to feed a dot's reshaped
-    operand (docs/performance_solvents.md)."""
+    Sums of population slices rather than a 4 × 19 dot, whose reshaped operand makes
+    XLA:CPU copy the populations that `stream` updated in place
+    (docs/performance_solvents.md)."""
 
     def total(indices):
         return sum((populations[i] for i in indices[1:]), populations[indices[0]])
