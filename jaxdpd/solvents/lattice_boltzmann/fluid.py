@@ -41,12 +41,14 @@ the per-cent level; the deviations keep that relative error at round-off.
 
 from dataclasses import dataclass
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd.solvents.lattice_boltzmann import counter_noise
 from jaxdpd.solvents.lattice_boltzmann.lattice import (
     FLUCTUATING_MODES,
+    HYDRODYNAMIC_MODES,
     INVERSE_MODE_BASIS,
     MODE_BASIS,
     MODE_NORMS,
@@ -128,9 +130,10 @@ class FluidParameters:
         return self.population_variance / self.density**2
 
 
-def modes(populations):
-    """m = E f over the leading axis: (19, ...) → (19, ...)."""
-    basis = jnp.asarray(MODE_BASIS, populations.dtype)
+def modes(populations, count: int = N_VELOCITIES):
+    """The first `count` modes m_k = Σ_i e_ki f_i over the leading axis: (19, ...) →
+    (count, ...)."""
+    basis = jnp.asarray(MODE_BASIS[:count], populations.dtype)
     return jnp.einsum("ki,i...->k...", basis, populations)
 
 
@@ -141,14 +144,36 @@ def populations_from_modes(mode_values):
     return jnp.einsum("ik,k...->i...", inverse, mode_values)
 
 
-def stream(populations):
-    """f_i(r + c_i) ← f_i(r) on the periodic lattice; (19, n_x, n_y, n_z)."""
-    return jnp.stack(
-        [
-            jnp.roll(populations[i], tuple(int(c) for c in VELOCITIES[i]), axis=(0, 1, 2))
-            for i in range(N_VELOCITIES)
-        ]
-    )
+def _wrapped_pieces(shift: int, n: int):
+    """(source slice, destination start) pairs that move a periodic axis of n nodes by
+    `shift` ∈ {−1, 0, 1}: the bulk, and the plane that wraps around."""
+    if shift == 0:
+        return [(slice(0, n), 0)]
+    if shift == 1:
+        return [(slice(0, n - 1), 1), (slice(n - 1, n), 0)]
+    return [(slice(1, n), 0), (slice(0, 1), n - 1)]
+
+
+def stream(populations, into=None):
+    """f_i(r + c_i) ← f_i(r) on the periodic lattice; (19, n_x, n_y, n_z).
+
+    The shifted blocks (1, 2 or 4 per population: the bulk and the wrapped planes) are
+    written by in-place slice updates of `into`, an array of the populations' shape
+    whose values are no longer needed (e.g. the pre-collision populations of the same
+    step); every element is overwritten.  XLA:CPU runs these updates as in-place
+    copies, where `jnp.roll` and `jnp.stack` are slower concatenates
+    (docs/performance_solvents.md).  Without `into`, a copy of the populations serves
+    as the buffer.
+    """
+    out = populations if into is None else into
+    n_x, n_y, n_z = populations.shape[1:]
+    for i, (c_x, c_y, c_z) in enumerate(VELOCITIES):
+        for source_x, x in _wrapped_pieces(int(c_x), n_x):
+            for source_y, y in _wrapped_pieces(int(c_y), n_y):
+                for source_z, z in _wrapped_pieces(int(c_z), n_z):
+                    block = populations[i : i + 1, source_x, source_y, source_z]
+                    out = jax.lax.dynamic_update_slice(out, block, (i, x, y, z))
+    return out
 
 
 def stress_modes(a, b):
@@ -175,10 +200,21 @@ def stress_modes(a, b):
 
 def mass_and_momentum(populations):
     """Σ_i f_i (n_x, n_y, n_z) and the lattice momentum density j = Σ_i f_i c_i (3, ...)
-    of populations or of their deviations (then the first is ρ − ρ₀; j is the same)."""
-    basis = jnp.asarray(MODE_BASIS[:4], populations.dtype)
-    moments = jnp.einsum("ki,i...->k...", basis, populations)
-    return moments[0], moments[1:]
+    of populations or of their deviations (then the first is ρ − ρ₀; j is the same).
+
+    Sums of population slices rather than a 4 × 19 dot, whose reshaped operand makes
+    XLA:CPU copy the populations that `stream` updated in place
+    (docs/performance_solvents.md)."""
+
+    def total(indices):
+        return sum((populations[i] for i in indices[1:]), populations[indices[0]])
+
+    momentum = [
+        total(np.flatnonzero(VELOCITIES[:, axis] > 0))
+        - total(np.flatnonzero(VELOCITIES[:, axis] < 0))
+        for axis in range(3)
+    ]
+    return total(range(N_VELOCITIES)), jnp.stack(momentum)
 
 
 def equilibrium_deviations(density, velocity, rest_density: float):
@@ -236,13 +272,17 @@ def lattice_update(
     if thermal:
         fluctuating = np.asarray(FLUCTUATING_MODES)
         amplitude = np.sqrt((1 - gammas[fluctuating] ** 2) * parameters.mode_variances[fluctuating])
-        amplitudes = jnp.asarray(amplitude, dtype).reshape(-1, 1, 1, 1)
+        # f* = E⁻¹ m* in one dot: the 10 relaxed hydrodynamic modes, then the noise of
+        # modes 4-18 as 15 more columns (a ghost's m* is its noise alone)
+        hydrodynamic = INVERSE_MODE_BASIS[:, : len(HYDRODYNAMIC_MODES)]
+        noise = INVERSE_MODE_BASIS[:, fluctuating] * amplitude
+        noisy_inverse = jnp.asarray(np.concatenate([hydrodynamic, noise], axis=1), dtype)
         draw = counter_noise.NOISE_LAWS[noise_law]
 
     rest_density = jnp.asarray(parameters.density, dtype)
 
     def update(deviations, impulse_density, key, boundary=()):
-        m = modes(deviations)
+        m = modes(deviations, len(HYDRODYNAMIC_MODES))  # a ghost's m* is its noise alone
         density, momentum = rest_density + m[0], m[1:4]
         impulse = (impulse_to_lattice * impulse_density).astype(dtype)
         velocity = (momentum + 0.5 * impulse) / density
@@ -252,17 +292,16 @@ def lattice_update(
             + stress_gammas * (m[4:10] - equilibrium)
             + (1 + stress_gammas) * stress_modes(velocity, impulse)
         )
-        relaxed = [m[:1], momentum + impulse, stress]
+        relaxed = jnp.concatenate([m[:1], momentum + impulse, stress])
         if thermal:
-            relaxed = jnp.concatenate([*relaxed, jnp.zeros_like(m[10:])])
-            xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape(m[4:].shape)
-            relaxed = relaxed.at[4:].add(amplitudes * xi)
-        else:  # the ghosts relax to zero: transform back the 10 hydrodynamic modes only
-            relaxed = jnp.concatenate(relaxed)
-        if sheared_stream is None:
-            streamed = stream(populations_from_modes(relaxed))
+            xi = draw(key, n_nodes, len(FLUCTUATING_MODES), dtype).reshape((-1, *m.shape[1:]))
+            modes_and_noise = jnp.concatenate([relaxed, xi])
+            post_collision = jnp.einsum("ik,k...->i...", noisy_inverse, modes_and_noise)
         else:
             post_collision = populations_from_modes(relaxed)
+        if sheared_stream is None:
+            streamed = stream(post_collision, into=deviations)
+        else:
             streamed = sheared_stream(post_collision, density, relaxed[1:4], *boundary)
         new_mass, new_momentum = mass_and_momentum(streamed)
         new_density = rest_density + new_mass

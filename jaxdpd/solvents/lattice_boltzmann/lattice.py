@@ -85,6 +85,8 @@ MOMENTUM_MODES = (1, 2, 3)
 BULK_MODE = 4
 SHEAR_MODES = (5, 6, 7, 8, 9)
 GHOST_MODES = tuple(range(10, 19))
+HYDRODYNAMIC_MODES = (MASS_MODE, *MOMENTUM_MODES, BULK_MODE, *SHEAR_MODES)
+"""Modes 0–9: all that the collision reads (the ghosts relax fully, to m^eq = 0)."""
 FLUCTUATING_MODES = (BULK_MODE, *SHEAR_MODES, *GHOST_MODES)
 """Modes that are not conserved by the collision: they relax and get thermal noise."""
 
