@@ -18,7 +18,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from thunk_profile import by_kind, thunk_times
+from thunk_profile import report, thunk_times
 
 import jaxdpd
 from jaxdpd.solvents.lattice_boltzmann import counter_noise
@@ -56,16 +56,8 @@ def main():
     jax.block_until_ready(run(start))
     mlups = n**3 * args.steps / (time.perf_counter() - begin) / 1e6
     totals = thunk_times(run, start)
-    per_step = 1e-3 / args.steps
-    operations = {k: v for k, v in totals.items() if not k.startswith("while")}
-    print(
-        f"{n}^3 {args.precision} noise={args.noise}: {mlups:.1f} MLUPS unprofiled, "
-        f"{sum(operations.values()) * per_step:.2f} ms per step in operations"
-    )
-    for title, table in (("by operation", totals), ("by kind", by_kind(totals))):
-        print(f"\n{title} (ms per step)")
-        for name, microseconds in table.most_common(args.top):
-            print(f"{microseconds * per_step:8.3f}  {name}")
+    print(f"{n}^3 {args.precision} noise={args.noise}: {mlups:.1f} MLUPS unprofiled,", end=" ")
+    report(totals, args.steps, args.top)
     if args.hlo:
         args.hlo.write_text(run.lower(start).compile().as_text())
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from thunk_profile import thunk_times
+from thunk_profile import report, thunk_times
 
 import jaxdpd
 
@@ -62,10 +62,8 @@ def main() -> None:
         call, arguments = brownian_call(args.size, steps, args.noise)
     jax.block_until_ready(call(*arguments))
     totals = thunk_times(call, *arguments)
-    per_step = 1e-3 / steps
-    print(f"{args.method}, N = {args.size}: {sum(totals.values()) * per_step:.3f} ms per step")
-    for name, microseconds in totals.most_common(args.top):
-        print(f"{microseconds * per_step:8.3f}  {name}")
+    print(f"{args.method}, N = {args.size}:", end=" ")
+    report(totals, steps, args.top)
     if args.hlo is not None:
         args.hlo.write_text(call.as_text())
 
