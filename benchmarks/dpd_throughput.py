@@ -16,8 +16,9 @@ absent).
 
 Usage:
     python benchmarks/dpd_throughput.py [--sizes 3000 24000 96000]
-        [--precisions float32 float64] [--steps 100] [--peer lammps]
-Writes benchmarks/results/dpd_throughput.json.
+        [--precisions float32 float64] [--steps 100] [--skin 0] [--peer lammps]
+        [--output dpd_throughput]
+Writes benchmarks/results/<output>.json.
 """
 
 import argparse
@@ -36,7 +37,9 @@ from jaxdpd.scene import Scene
 DENSITY, REPULSION, GAMMA, DT = 3.0, 25.0, 4.5, 0.04
 
 
-def fluid_scene(n: int, precision: str, observables=("temperature", "pressure")) -> Scene:
+def fluid_scene(
+    n: int, precision: str, observables=("temperature", "pressure"), skin: float = 0.0
+) -> Scene:
     return Scene.from_dict(
         {
             "seed": 1,
@@ -44,6 +47,7 @@ def fluid_scene(n: int, precision: str, observables=("temperature", "pressure"))
             "particles": {"density": DENSITY, "count": n},
             "solvent": {"method": "dpd", "kT": 1.0, "gamma": GAMMA},
             "pair": {"a": REPULSION},
+            "neighbors": {"skin": skin},
             "integrator": {"dt": DT, "lambda": 0.5},
             "output": {"observables": list(observables)},
         }
@@ -64,8 +68,8 @@ class JaxdpdFluid:
     once per timed chunk (its error checks, buffer refits and host-side series
     included), after `equilibration` steps run the same way."""
 
-    def __init__(self, n: int, precision: str, steps: int, equilibration: int):
-        self.scene = fluid_scene(n, precision)
+    def __init__(self, n: int, precision: str, steps: int, equilibration: int, skin: float = 0.0):
+        self.scene = fluid_scene(n, precision, skin=skin)
         self.n, self.steps = n, steps
         self.simulation = build(self.scene)
         start = time.perf_counter()
@@ -98,9 +102,11 @@ class JaxdpdFluid:
         return seconds, {key: series[key] for key in ("temperature", "pressure")}
 
 
-def measure(n: int, precision: str, steps: int, equilibration: int, chunks: int) -> dict:
+def measure(
+    n: int, precision: str, steps: int, equilibration: int, chunks: int, skin: float = 0.0
+) -> dict:
     """Throughput (best chunk), memory and thermodynamics of one fluid."""
-    fluid = JaxdpdFluid(n, precision, steps, equilibration)
+    fluid = JaxdpdFluid(n, precision, steps, equilibration, skin)
     seconds = []
     series = {"temperature": [], "pressure": []}
     for _ in range(chunks):
@@ -112,6 +118,7 @@ def measure(n: int, precision: str, steps: int, equilibration: int, chunks: int)
     row = {
         "N": n,
         "precision": precision,
+        "skin": skin,
         "particle_steps_per_s": rate,
         "ns_per_particle_step": 1e9 / rate,
         "compile_s": fluid.first_chunk_seconds - min(seconds),
@@ -142,12 +149,16 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--chunks", type=int, default=3, help="timed chunks (best counts)")
     parser.add_argument("--equilibration", type=int, default=200)
+    parser.add_argument("--skin", type=float, default=0.0, help="Verlet skin of the cell list")
+    parser.add_argument("--output", default="dpd_throughput", help="results file name")
     parser.add_argument("--peer", choices=["lammps"], default=None)
     args = parser.parse_args()
     rows = []
     for precision in args.precisions:
         for n in args.sizes:
-            row = measure_in_child((n, precision, args.steps, args.equilibration, args.chunks))
+            row = measure_in_child(
+                (n, precision, args.steps, args.equilibration, args.chunks, args.skin)
+            )
             row["rss_kib_per_particle"] = row["peak_rss_mib"] * 1024 / n
             rows.append(row)
             print_table(list(row), [row])
@@ -169,7 +180,7 @@ def main() -> None:
     ]
     print()
     print_table(columns, rows)
-    path = write_json("dpd_throughput", {"steps": args.steps, "rows": rows})
+    path = write_json(args.output, {"steps": args.steps, "rows": rows})
     print(f"wrote {path}")
     if args.peer == "lammps":
         from peer_lammps import run_comparison  # imports this module: import late
