@@ -1,8 +1,10 @@
 """Helpers shared by the benchmark scripts: timing, tables, JSON results."""
 
+import importlib.util
 import json
 import platform
 import resource
+import statistics
 import time
 from pathlib import Path
 
@@ -58,6 +60,37 @@ def best_of(function, repeats: int) -> float:
         function()
         times.append(time.perf_counter() - start)
     return min(times)
+
+
+def module_from_file(path: Path, name: str):
+    """The Python module at `path`, imported under `name`: e.g. a base tree's copy of
+    a jaxdpd module, loaded beside this tree's for an A/B comparison."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def alternating_rates(runs: dict, work: float, rounds: int) -> dict:
+    """{label: [work per second, one per round]} of the argument-free callables in
+    `runs` (their results blocked on), each timed once per round, in reverse order
+    every other round, so that the load of a shared machine hits them alike."""
+    rates = {label: [] for label in runs}
+    for index in range(rounds):
+        order = list(runs) if index % 2 == 0 else list(runs)[::-1]
+        for label in order:
+            start = time.perf_counter()
+            jax.block_until_ready(runs[label]())
+            rates[label].append(work / (time.perf_counter() - start))
+    return rates
+
+
+def ratio_summary(rates: dict, this: str = "this", base: str = "base") -> str:
+    """'this/base median R (rounds: r1 r2 ...)' of `alternating_rates`' output: the
+    rounds' spread is the noise a difference must exceed."""
+    ratios = [a / b for a, b in zip(rates[this], rates[base], strict=True)]
+    rounds = " ".join(f"{r:.2f}" for r in ratios)
+    return f"{this}/{base} median {statistics.median(ratios):.2f} (rounds: {rounds})"
 
 
 def print_table(columns, rows) -> None:

@@ -10,15 +10,14 @@ float64) in alternating rounds, so that the machine's load hits both alike.
 """
 
 import argparse
-import importlib.util
 import statistics
 import sys
-import time
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _common import alternating_rates, module_from_file, ratio_summary
 from brownian_throughput import DE, DT, B
 
 import jaxdpd
@@ -33,9 +32,7 @@ def load_base(root: Path):
     try:
         for name in ("springs", "dynamics"):
             path = root / "jaxdpd" / "brownian" / f"{name}.py"
-            spec = importlib.util.spec_from_file_location(f"base_brownian_{name}", path)
-            modules[name] = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(modules[name])
+            modules[name] = module_from_file(path, f"base_brownian_{name}")
             sys.modules["jaxdpd.brownian.springs"] = modules["springs"]
     finally:
         sys.modules["jaxdpd.brownian.springs"] = saved
@@ -77,18 +74,14 @@ def main() -> None:
             }
             for run in runs.values():
                 jax.block_until_ready(run(key, q0))
-            rates, ratios = {"base": [], "this": []}, []
-            for index in range(args.rounds):
-                order = ("base", "this") if index % 2 == 0 else ("this", "base")
-                for name in order:
-                    start = time.perf_counter()
-                    jax.block_until_ready(runs[name](key, q0))
-                    rates[name].append(n * args.steps / (time.perf_counter() - start))
-                ratios.append(rates["this"][-1] / rates["base"][-1])
+            rates = alternating_rates(
+                {name: lambda r=run, k=key, q=q0: r(k, q) for name, run in runs.items()},
+                n * args.steps,
+                args.rounds,
+            )
             print(
                 f"N = {n}, {noise}: base {statistics.median(rates['base']):.3g}/s, "
-                f"this {statistics.median(rates['this']):.3g}/s, this/base median "
-                f"{statistics.median(ratios):.2f} (rounds: {' '.join(f'{r:.2f}' for r in ratios)})",
+                f"this {statistics.median(rates['this']):.3g}/s, {ratio_summary(rates)}",
                 flush=True,
             )
 

@@ -14,27 +14,18 @@ Usage:
 """
 
 import argparse
-import importlib.util
-import time
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _common import alternating_rates, module_from_file, ratio_summary
 
 import jaxdpd
 from jaxdpd.solvents.lattice_boltzmann import counter_noise
 
 FLUID = Path("jaxdpd/solvents/lattice_boltzmann/fluid.py")
 HERE = Path(__file__).resolve().parent.parent
-
-
-def load_fluid(tree: Path, name: str):
-    """The fluid module of a source tree, imported under its own name."""
-    spec = importlib.util.spec_from_file_location(name, tree / FLUID)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def scan_runner(fluid_module, parameters, dtype, noise: str, impulse, steps: int):
@@ -64,7 +55,8 @@ def main():
     args = parser.parse_args()
     jaxdpd.enable_float64()
     dtype, n = jnp.dtype(args.precision), args.size
-    base, this = load_fluid(args.base, "base_fluid"), load_fluid(HERE, "this_fluid")
+    base = module_from_file(args.base / FLUID, "base_fluid")
+    this = module_from_file(HERE / FLUID, "this_fluid")
     kT = 0.0 if args.noise == "off" else 1e-4
     parameters = this.FluidParameters((n, n, n), 1.0, 1.0, 1.0, 0.1, 0.1, kT)
     rng = np.random.default_rng(0)
@@ -77,18 +69,15 @@ def main():
     results = {label: jax.device_get(run(start, 0)) for label, run in runs.items()}
     leaves = [jax.tree.leaves(results[label]) for label in runs]
     identical = all(np.array_equal(a, b) for a, b in zip(*leaves, strict=True))
-    rates = {label: [] for label in runs}
-    for round_ in range(args.rounds):
-        order = list(runs) if round_ % 2 == 0 else list(runs)[::-1]
-        for label in order:
-            begin = time.perf_counter()
-            jax.block_until_ready(runs[label](start, 0))
-            rates[label].append(n**3 * args.steps / (time.perf_counter() - begin) / 1e6)
-    ratios = np.array(rates["this"]) / np.array(rates["base"])
+    rates = alternating_rates(
+        {label: lambda run=run: run(start, 0) for label, run in runs.items()},
+        n**3 * args.steps / 1e6,
+        args.rounds,
+    )
     print(f"{n}^3 {args.precision} noise={args.noise}: bit-identical={identical}")
     for label in runs:
         print(f"  {label}: median {np.median(rates[label]):.1f} MLUPS")
-    print(f"  this/base: median {np.median(ratios):.2f}, rounds {np.round(ratios, 2).tolist()}")
+    print(f"  {ratio_summary(rates)}")
 
 
 if __name__ == "__main__":

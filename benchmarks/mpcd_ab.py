@@ -12,27 +12,16 @@ state are compared bit for bit.
 """
 
 import argparse
-import importlib.util
 import statistics
-import time
 from pathlib import Path
 
-import jax
 import numpy as np
+from _common import alternating_rates, module_from_file, ratio_summary
 from mpcd_throughput import solvent_scene
 
 from jaxdpd.engine.build import build
 from jaxdpd.run import driver
 from jaxdpd.solvents.mpcd import step as mpcd_step_module
-
-
-def load_base_collision(root: Path):
-    """The base tree's MPCD collision module, under another name."""
-    path = root / "jaxdpd" / "solvents" / "mpcd" / "collision.py"
-    spec = importlib.util.spec_from_file_location("base_mpcd_collision", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def compiled_chunk(scene, steps: int, collision_module=None):
@@ -58,25 +47,27 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=6)
     args = parser.parse_args()
     scene = solvent_scene(args.size, args.precision)
-    base_chunk, _ = compiled_chunk(scene, args.steps, load_base_collision(args.base))
+    base_chunk, _ = compiled_chunk(
+        scene,
+        args.steps,
+        module_from_file(
+            args.base / "jaxdpd" / "solvents" / "mpcd" / "collision.py", "base_mpcd_collision"
+        ),
+    )
     this_chunk, state = compiled_chunk(scene, args.steps)
     runs = {"base": base_chunk, "this": this_chunk}
     (base_state, _), (this_state, _) = runs["base"](state), runs["this"](state)
     identical = np.array_equal(np.asarray(base_state.velocities), np.asarray(this_state.velocities))
     n = scene.n_particles
-    rates, ratios = {"base": [], "this": []}, []
-    for index in range(args.rounds):
-        for name in ("base", "this") if index % 2 == 0 else ("this", "base"):
-            start = time.perf_counter()
-            jax.block_until_ready(runs[name](state))
-            rates[name].append(n * args.steps / (time.perf_counter() - start))
-        ratios.append(rates["this"][-1] / rates["base"][-1])
+    rates = alternating_rates(
+        {name: lambda chunk=chunk: chunk(state) for name, chunk in runs.items()},
+        n * args.steps,
+        args.rounds,
+    )
     print(
         f"N = {n} {args.precision}: velocities after {args.steps} steps bit-identical: "
         f"{identical}; base {statistics.median(rates['base']):.3g}/s, this "
-        f"{statistics.median(rates['this']):.3g}/s, this/base median "
-        f"{statistics.median(ratios):.2f} "
-        f"(rounds: {' '.join(f'{r:.2f}' for r in ratios)})"
+        f"{statistics.median(rates['this']):.3g}/s, {ratio_summary(rates)}"
     )
 
 
