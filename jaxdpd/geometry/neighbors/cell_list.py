@@ -5,12 +5,14 @@ themselves in a box at rest, sheared coordinates in a Lees–Edwards box; see
 jaxdpd.geometry.boxes), into cells at least r_c + skin thick and laid out on a padded grid
 (slot, c_x, c_y, c_z) of per-cell member slots.  Each cell is compared with itself
 (slot pairs j > i) and with 13 "forward" neighbour cells (a half stencil), so every
-pair is found exactly once.  The neighbour blocks are whole-grid rolls, and the
-distance tests are dense element-wise arithmetic on (slot, cell) planes: XLA's CPU
-backend runs these far faster than per-particle gathers of candidates.  Each test
-result is packed into 32-bit lanes, one bit per candidate slot, and the lanes of a
-particle's row are packed in turn, as many as fit, into 64-bit words (a row of the 14
-offsets × 11 slots of a DPD fluid at ρ = 3 needs 3 words, not 14).  The accepted
+pair is found exactly once.  The grid is padded with a layer of periodic images
+and flattened, so that each offset's neighbour cells are one static slice of it, and
+the distance tests are dense element-wise arithmetic on contiguous (slot, cell)
+planes: XLA's CPU backend vectorises these, unlike per-particle gathers of
+candidates.  Each test result is one bit per candidate slot, in lanes of up to 32
+slots, and the lanes of a particle's row are packed, as many as fit, into 64-bit
+words (a row of the 14 offsets × 5 dense-tier slots of a DPD fluid at ρ = 3 needs
+2 words, not 14).  The accepted
 pairs are compacted into flat (i, j) arrays with prefix sums over popcounts, one
 scatter and a running maximum (O(N + capacity), no per-pair search over the rows).
 
@@ -162,70 +164,124 @@ def _bin(cell_ids, n_cells_total: int, cell_capacity: int, absent_rows: bool = F
     return jnp.where(slots < counts[None, :], gathered, n), slot, jnp.max(counts)
 
 
-# Size (offsets × slots × cells) up to which all stencil offsets are tested at once.
-_SMALL_GRID_ELEMENTS = 1 << 18
+def _materialised(predicate, compute, *operands):
+    """`compute(*operands)` where `predicate` holds, else zeros of its shape, as a
+    computation of its own (the branch of a conditional).  XLA fuses a cheap producer
+    into each consumer, and into a gather it then re-evaluates it element by element
+    in scalar code; its CPU pipeline drops optimisation barriers, so a conditional is
+    what keeps such a result materialised."""
+    shape = jax.eval_shape(compute, *operands)
+
+    def zeros(*_):
+        return jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), shape)
+
+    return jax.lax.cond(predicate, compute, zeros, *operands)
 
 
-def _accepted_words(bound_box, frame, members, n_cells, offsets, list_cutoff):
-    """Distance tests of every (slot, cell) against the slots of its stencil cells.
+def halo_grid(n_cells: tuple[int, int, int]) -> dict:
+    """The cell grid padded with one layer of periodic images on every axis of ≥ 3
+    cells, flattened (static numpy tables).
+
+    On the padded grid the neighbour (cell + offset) of every interior cell sits at
+    one fixed distance in the flat index, so a stencil offset's neighbour slots are a
+    static slice: the distance tests read contiguous memory, which XLA's CPU loops
+    vectorise (rolling the grid instead made them gather).
+
+    Returns:
+        {"source": (P,) the cell each padded cell copies, "image": (P, 3) its image
+        (−1, 0, 1) along each axis, "strides": flat strides of the padded axes,
+        "first": flat index of the first interior cell, "span": flat length from the
+        first to the last interior cell, "index": (cells,) each cell's place in that
+        span}.
+    """
+    pads = np.asarray([1 if n >= 3 else 0 for n in n_cells])
+    shape = np.asarray(n_cells)
+    padded = shape + 2 * pads
+    xyz = np.indices(padded).reshape(3, -1).T - pads
+    strides = np.asarray([padded[1] * padded[2], padded[2], 1])
+    interior = (np.indices(n_cells).reshape(3, -1).T + pads) @ strides
+    first = int(interior.min())
+    return {
+        "source": _cell_id(xyz % shape, n_cells).astype(np.int32),
+        "image": np.floor_divide(xyz, shape),
+        "strides": tuple(int(s) for s in strides),
+        "first": first,
+        "span": int(interior.max()) + 1 - first,
+        "index": (interior - first).astype(np.int32),
+    }
+
+
+def halo_deltas(halo: dict, offsets) -> np.ndarray:
+    """Flat-index distance from a cell to its neighbour at each offset on the padded
+    grid of `halo_grid` (int64; may be negative)."""
+    return np.asarray(
+        [sum(o * s for o, s in zip(offset, halo["strides"], strict=True)) for offset in offsets]
+    )
+
+
+def _dense_words(bound_box, frame, members, n_cells, offsets, list_cutoff, halo):
+    """Distance tests of every dense-tier slot against the dense-tier slots of its
+    stencil cells, packed into 64-bit words (layout of `_lane_layout`: lane
+    o · groups + g holds slots g·32 … of the cell at offset o).
 
     Args:
         bound_box: the box at this instant (frame lengths, frame → Cartesian).
         frame: (N, 3) frame coordinates of the particles.
-        members: (slots, cells) particle in each slot (N when empty).
+        members: (slots, cells) particle in each dense-tier slot (N when empty).
         offsets: the stencil, own cell first.
+        halo: `halo_grid(n_cells)`.
     Returns:
-        (lanes, slots, cells) uint32; bit b of lane (o, g) says whether slot
-        g·32 + b of the neighbour cell (cell + offset o) is within r_list.
+        (words, slots, span) uint64 over the flat padded grid's interior span (a
+        cell's column is `halo["index"]`).
     """
     n = frame.shape[0]
     dtype = frame.dtype
     lengths = bound_box.lengths
-    cell_capacity = members.shape[0]
-    grid_shape = (cell_capacity,) + n_cells
-    members = members.reshape(grid_shape)
-    empty = members >= n
-    safe = jnp.minimum(members, n - 1)
-    # Empty slots hold NaN: every comparison with them is False.
-    coordinates = [
-        jnp.where(empty, jnp.asarray(jnp.nan, dtype), frame[:, axis][safe]) for axis in range(3)
-    ]
+    dense = members.shape[0]
+    padded_members = members[:, halo["source"]]
+    empty = padded_members >= n
+    safe = jnp.minimum(padded_members, n - 1)
+    # Empty slots hold NaN: every comparison with them is False.  Image cells are
+    # shifted by a box length along the frame axis they wrapped.
+    coordinates = []
+    for axis in range(3):
+        values = jnp.where(empty, jnp.asarray(jnp.nan, dtype), frame[:, axis][safe])
+        if n_cells[axis] >= 3:
+            image = halo["image"][:, axis] * lengths[axis]
+            values = values + jnp.asarray(image, dtype)[None]
+        coordinates.append(values)
+    first, span = halo["first"], halo["span"]
+    own = [values[:, first : first + span] for values in coordinates]
     limit = jnp.asarray(list_cutoff**2, dtype)
-    groups = math.ceil(cell_capacity / LANE_BITS)
-    slot_index = np.arange(cell_capacity)
-    # Small grids test all offsets in one batch (a few large fused loops instead of
-    # many tiny ones: dispatch, not arithmetic, bounds small systems); large grids
-    # test one offset at a time (measured: intermediate batches run slower than both).
-    small = len(offsets) * members.size <= _SMALL_GRID_ELEMENTS
-    batch_size = len(offsets) if small else 1
+    groups, lane_width, per_word = _lane_layout(dense)
+    n_lanes = len(offsets) * groups
+    slot_index = np.arange(dense)[:, None]
     words = []
-    for first in range(0, len(offsets), batch_size):
-        batch = offsets[first : first + batch_size]
-        rolled = [
-            jnp.stack(r)
-            for r in zip(*(_rolled(coordinates, o, n_cells, lengths) for o in batch), strict=True)
-        ]
-        # Within the own cell (offset 0) only slot pairs i < j count.
-        is_own = np.array([offset == (0, 0, 0) for offset in batch])[:, None, None]
-        counted = ~is_own | (slot_index[:, None] < slot_index[None, :])[None]
-        batch_words = [jnp.zeros((len(batch),) + grid_shape, jnp.uint32) for _ in range(groups)]
-        for j in range(cell_capacity):
-            # Slot j of each neighbour cell against all slots of the own cell.
-            separation = []
-            for axis in range(3):
-                component = coordinates[axis][None] - rolled[axis][:, j, None]
-                if n_cells[axis] == 1:
-                    length = jnp.asarray(lengths[axis], dtype)
-                    component = component - length * jnp.round(component / length)
-                separation.append(component)
-            separation = bound_box.frame_to_cartesian(tuple(separation))
-            distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
-            within = (distance_sq < limit) & counted[:, :, j, None, None, None]
-            group, bit = divmod(j, LANE_BITS)
-            batch_words[group] = batch_words[group] | (within.astype(jnp.uint32) << jnp.uint32(bit))
-        # (batch, groups, slots, grid): word index offset · groups + group.
-        words.append(jnp.stack(batch_words, axis=1).reshape((-1, cell_capacity) + n_cells))
-    return jnp.concatenate(words).reshape(len(offsets) * groups, cell_capacity, -1)
+    for first_lane in range(0, n_lanes, per_word):
+        word = jnp.zeros((dense, span), jnp.uint64)
+        for position, lane in enumerate(range(first_lane, min(first_lane + per_word, n_lanes))):
+            offset_index, group = divmod(lane, groups)
+            offset = offsets[offset_index]
+            start = first + int(halo_deltas(halo, [offset])[0])
+            neighbor = [values[:, start : start + span] for values in coordinates]
+            for bit in range(min(lane_width, dense - group * LANE_BITS)):
+                j = group * LANE_BITS + bit
+                separation = []
+                for axis in range(3):
+                    component = own[axis] - neighbor[axis][j][None]
+                    if n_cells[axis] == 1:
+                        length = jnp.asarray(lengths[axis], dtype)
+                        component = component - length * jnp.round(component / length)
+                    separation.append(component)
+                separation = bound_box.frame_to_cartesian(tuple(separation))
+                distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
+                within = distance_sq < limit
+                if offset == (0, 0, 0):  # within the own cell only slot pairs i < j count
+                    within = within & (slot_index < j)
+                shift = jnp.uint64(position * lane_width + bit)
+                word = word | (within.astype(jnp.uint64) << shift)
+        words.append(word)
+    return jnp.stack(words)
 
 
 def dense_tier(n_particles: float, n_cells_total: int) -> int:
@@ -269,12 +325,20 @@ def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, around, li
     is_crowded = (slot >= dense) & (slot < cell_capacity)
     room = crowd_capacity(n, cell_capacity, dense)
     crowded = jnp.nonzero(is_crowded, size=room, fill_value=n)[0].astype(jnp.int32)
-    safe = jnp.minimum(crowded, n - 1)
-    cells = _cell_id((cell_xyz[safe][:, None, :] + around[None]) % jnp.asarray(n_cells), n_cells)
-    # Whole cells are gathered as rows: (K, offsets, slots) and (K, offsets, slots, 3).
-    partners = members.T[cells]
-    slot_frames = frame[jnp.minimum(members.T, n - 1)]
-    separation = frame[safe][:, None, None, :] - slot_frames[cells]
+    count = jnp.sum(is_crowded, dtype=jnp.int32)
+
+    def gathered():
+        """Whole cells gathered as rows: partners (K, offsets, slots) and raw
+        separations (K, offsets, slots, 3), kept apart from the tests that follow
+        so that those run as vector loops."""
+        safe = jnp.minimum(crowded, n - 1)
+        cells = (cell_xyz[safe][:, None, :] + around[None]) % jnp.asarray(n_cells)
+        cells = _cell_id(cells, n_cells)
+        slot_frames = frame[jnp.minimum(members.T, n - 1)]
+        return members.T[cells], frame[safe][:, None, None, :] - slot_frames[cells]
+
+    # A liquid's step often has no crowded particle at all.
+    partners, separation = _materialised(count > 0, gathered)
     lengths = jnp.asarray(bound_box.lengths, frame.dtype)
     separation = separation - lengths * jnp.round(separation / lengths)
     separation = [separation[..., axis] for axis in range(3)]
@@ -290,7 +354,7 @@ def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, around, li
     weights = jnp.left_shift(jnp.uint64(1), jnp.arange(WORD_BITS, dtype=jnp.uint64))
     # Distinct powers of two: their sum is their bitwise or.
     words = jnp.sum(flat.reshape(-1, n_words, WORD_BITS) * weights, axis=-1, dtype=jnp.uint64)
-    return crowded, jnp.sum(is_crowded, dtype=jnp.int32), words.T
+    return crowded, count, words.T
 
 
 def _lane_layout(cell_capacity: int) -> tuple[int, int, int]:
@@ -298,40 +362,6 @@ def _lane_layout(cell_capacity: int) -> tuple[int, int, int]:
     groups = math.ceil(cell_capacity / LANE_BITS)
     lane_width = cell_capacity if groups == 1 else LANE_BITS
     return groups, lane_width, WORD_BITS // lane_width
-
-
-def _pack_lanes(lanes, cell_capacity: int):
-    """Pack the (lanes, ...) uint32 test lanes into (words, ...) uint64 words:
-    lane q is bits (q mod k)·w … (q mod k)·w + w − 1 of word ⌊q/k⌋, with w bits per
-    lane and k lanes per word (`_lane_layout`).  Fewer, fuller words make the
-    row-major compaction shorter."""
-    _, lane_width, per_word = _lane_layout(cell_capacity)
-    words = []
-    for first in range(0, lanes.shape[0], per_word):
-        word = jnp.zeros(lanes.shape[1:], jnp.uint64)
-        for m, lane in enumerate(lanes[first : first + per_word]):
-            word = word | (lane.astype(jnp.uint64) << jnp.uint64(m * lane_width))
-        words.append(word)
-    return jnp.stack(words)
-
-
-def _rolled(coordinates, offset, n_cells, lengths):
-    """Coordinates of the slots of each cell's neighbour (cell + offset), per axis.
-
-    Cells whose neighbour wrapped around the grid see it one box length away.
-    """
-    rolled = []
-    for axis in range(3):
-        neighbor = jnp.roll(coordinates[axis], tuple(-o for o in offset), axis=(1, 2, 3))
-        if offset[axis] != 0:
-            edge = n_cells[axis] - 1 if offset[axis] > 0 else 0
-            index = jnp.arange(n_cells[axis]).reshape(
-                [n_cells[axis] if a == axis else 1 for a in range(3)]
-            )
-            image = jnp.where(index == edge, offset[axis] * lengths[axis], 0.0)
-            neighbor = neighbor + image.astype(neighbor.dtype)[None]
-        rolled.append(neighbor)
-    return rolled
 
 
 def _compact(entries, pair_capacity: int):
@@ -402,8 +432,12 @@ def cell_list_search(
     cell_size = tuple(length / n for length, n in zip(box.lengths, n_cells, strict=True))
 
     offsets = stencil(n_cells)
-    offset_table = jnp.asarray(offsets, jnp.int32)
-    around_table = jnp.asarray(full_stencil(n_cells), jnp.int32)
+    around = full_stencil(n_cells)
+    around_table = jnp.asarray(around, jnp.int32)
+    halo = halo_grid(n_cells)
+    halo_index = jnp.asarray(halo["index"])
+    stencil_deltas = jnp.asarray(halo_deltas(halo, offsets), jnp.int32)
+    around_deltas = jnp.asarray(halo_deltas(halo, around), jnp.int32)
     expected = n_particles if density is None else density * box.volume
     dense_slots = dense_tier(expected, n_cells_total)
 
@@ -417,11 +451,16 @@ def cell_list_search(
             cell_ids = _cell_id(cell_xyz, n_cells)
         members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity, absent_rows)
         dense = min(dense_slots, cell_capacity)
-        lanes = _accepted_words(bound_box, frame, members[:dense], n_cells, offsets, list_cutoff)
-        grid_words = _pack_lanes(lanes, dense)
+        grid_words = _materialised(
+            max_occupancy > 0,
+            lambda: _dense_words(
+                bound_box, frame, members[:dense], n_cells, offsets, list_cutoff, halo
+            ),
+        )
         # Each dense-tier particle's row of words: (words, N).
         cells = jnp.minimum(cell_ids, n_cells_total - 1) if absent_rows else cell_ids
-        dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), cells]
+        particle_cells = halo["first"] + halo_index[cells]  # flat padded-grid index
+        dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), particle_cells - halo["first"]]
         dense_rows = jnp.where(slot < dense, dense_rows, jnp.uint64(0))
         crowded, crowd, crowded_rows = _crowded_rows(
             bound_box, frame, members, slot, cell_xyz, n_cells, around_table, list_cutoff, dense
@@ -430,24 +469,32 @@ def cell_list_search(
         entry, bit, valid, total = _compact(
             jnp.concatenate([dense_rows.T.reshape(-1), crowded_rows.T.reshape(-1)]), pair_capacity
         )
-        # Dense-tier entries: row · words + word, lanes of `dense` slots.
-        dense_words = dense_rows.shape[0]
-        groups, lane_width, per_word = _lane_layout(dense)
-        lane = (entry % dense_words) * per_word + bit // lane_width
-        dense_slot = (lane % groups) * LANE_BITS + bit % lane_width
-        dense_offset = offset_table[jnp.minimum(lane // groups, len(offsets) - 1)]
-        # Crowded entries: candidate o · cell_capacity + s around crowded[row].
-        crowded_entry = jnp.maximum(entry - dense_entries, 0)
-        crowded_words = crowded_rows.shape[0]
-        candidate = (crowded_entry % crowded_words) * WORD_BITS + bit
-        around = around_table[jnp.minimum(candidate // cell_capacity, len(around_table) - 1)]
+        # Each accepted bit names a row particle and a candidate c = (offset, slot)
+        # of the cells around it: on the padded grid the cell at offset o lies
+        # `deltas[o]` further along the flat index, so the partner is one lookup.
+        # Unsigned arithmetic: every index here is ≥ 0.
         is_dense = entry < dense_entries
-        i = jnp.where(is_dense, entry // dense_words, crowded[crowded_entry // crowded_words])
-        partner_slot = jnp.where(is_dense, dense_slot, candidate % cell_capacity)
-        offset = jnp.where(is_dense[:, None], dense_offset, around)
-        neighbor_xyz = (cell_xyz[jnp.minimum(i, n_particles - 1)] + offset) % jnp.asarray(n_cells)
-        partner_slot = jnp.minimum(partner_slot, cell_capacity - 1)
-        partner = members[partner_slot, _cell_id(neighbor_xyz, n_cells)]
+        entry, bit = entry.astype(jnp.uint32), bit.astype(jnp.uint32)
+        dense_words, crowded_words = dense_rows.shape[0], crowded_rows.shape[0]
+        groups, lane_width, per_word = _lane_layout(dense)
+        dense_row = entry // dense_words
+        dense_candidate = (entry - dense_row * dense_words) * (per_word * lane_width) + bit
+        crowded_entry = jnp.where(is_dense, jnp.uint32(0), entry - dense_entries)
+        crowded_row = crowded_entry // crowded_words
+        crowded_candidate = (crowded_entry - crowded_row * crowded_words) * WORD_BITS + bit
+        row_slots = lane_width * groups  # candidates per stencil offset of a dense row
+        i = jnp.where(is_dense, dense_row.astype(jnp.int32), crowded[crowded_row])
+        partner_slot = jnp.where(
+            is_dense, dense_candidate % row_slots, crowded_candidate % cell_capacity
+        )
+        delta = jnp.where(
+            is_dense,
+            stencil_deltas[jnp.minimum(dense_candidate // row_slots, len(offsets) - 1)],
+            around_deltas[jnp.minimum(crowded_candidate // cell_capacity, len(around) - 1)],
+        )
+        padded_members = members[:, halo["source"]]
+        row_cell = particle_cells[jnp.minimum(i, n_particles - 1)]
+        partner = padded_members[jnp.minimum(partner_slot, cell_capacity - 1), row_cell + delta]
         # Too many crowded particles: ask for larger cells, which hold more of them.
         crowd_overflow = crowd > crowded.shape[0]
         needed_occupancy = jnp.where(
