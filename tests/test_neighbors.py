@@ -51,11 +51,13 @@ def listed_pairs(pair_list, n):
 
 
 CONFIGURATIONS = [
-    # (lengths, N, cutoff, skin): cubic, elongated, single-cell axes, skin
+    # (lengths, N, cutoff, skin): cubic, elongated, single-cell axes, skin, and cells
+    # of 36 particles on average (a dense tier of 42 slots: two lanes per offset)
     ((8.0, 8.0, 8.0), 1536, 1.0, 0.0),
     ((12.0, 5.0, 6.5), 1170, 1.0, 0.3),
     ((2.5, 9.0, 2.8), 190, 1.0, 0.2),
     ((7.0, 7.0, 7.0), 1029, 1.3, 0.5),
+    ((4.0, 4.0, 4.0), 2304, 1.0, 0.0),
 ]
 
 
