@@ -459,8 +459,8 @@ def cell_list_search(
         )
         # Each dense-tier particle's row of words: (words, N).
         cells = jnp.minimum(cell_ids, n_cells_total - 1) if absent_rows else cell_ids
-        particle_cells = halo["first"] + halo_index[cells]  # flat padded-grid index
-        dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), particle_cells - halo["first"]]
+        span_index = halo_index[cells]  # column of each particle's cell in the words
+        dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), span_index]
         dense_rows = jnp.where(slot < dense, dense_rows, jnp.uint64(0))
         crowded, crowd, crowded_rows = _crowded_rows(
             bound_box, frame, members, slot, cell_xyz, n_cells, around_table, list_cutoff, dense
@@ -475,13 +475,13 @@ def cell_list_search(
         # Unsigned arithmetic: every index here is ≥ 0.
         is_dense = entry < dense_entries
         entry, bit = entry.astype(jnp.uint32), bit.astype(jnp.uint32)
-        dense_words, crowded_words = dense_rows.shape[0], crowded_rows.shape[0]
+        n_dense_words, n_crowded_words = dense_rows.shape[0], crowded_rows.shape[0]
         groups, lane_width, per_word = _lane_layout(dense)
-        dense_row = entry // dense_words
-        dense_candidate = (entry - dense_row * dense_words) * (per_word * lane_width) + bit
+        dense_row = entry // n_dense_words
+        dense_candidate = (entry - dense_row * n_dense_words) * (per_word * lane_width) + bit
         crowded_entry = jnp.where(is_dense, jnp.uint32(0), entry - dense_entries)
-        crowded_row = crowded_entry // crowded_words
-        crowded_candidate = (crowded_entry - crowded_row * crowded_words) * WORD_BITS + bit
+        crowded_row = crowded_entry // n_crowded_words
+        crowded_candidate = (crowded_entry - crowded_row * n_crowded_words) * WORD_BITS + bit
         row_slots = lane_width * groups  # candidates per stencil offset of a dense row
         i = jnp.where(is_dense, dense_row.astype(jnp.int32), crowded[crowded_row])
         partner_slot = jnp.where(
@@ -493,7 +493,7 @@ def cell_list_search(
             around_deltas[jnp.minimum(crowded_candidate // cell_capacity, len(around) - 1)],
         )
         padded_members = members[:, halo["source"]]
-        row_cell = particle_cells[jnp.minimum(i, n_particles - 1)]
+        row_cell = halo["first"] + span_index[jnp.minimum(i, n_particles - 1)]
         partner = padded_members[jnp.minimum(partner_slot, cell_capacity - 1), row_cell + delta]
         # Too many crowded particles: ask for larger cells, which hold more of them.
         crowd_overflow = crowd > crowded.shape[0]
