@@ -300,7 +300,7 @@ def crowd_capacity(n_particles: int, cell_capacity: int, dense: int) -> int:
     return min(n_particles, (math.ceil(n_particles / 200) + 32) * shares)
 
 
-def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, around, list_cutoff, dense):
+def _crowded_rows(bound_box, frame, members, slot, around_cells, list_cutoff, dense):
     """Candidate tests of the crowded particles (slots at or above the dense tier).
 
     Each crowded particle p is tested against every slot of the cells of
@@ -310,8 +310,8 @@ def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, around, li
     Args:
         members: (slots, cells) particle in each slot (N when empty).
         slot: (N,) each particle's slot in its cell.
-        cell_xyz: (N, 3) cell coordinates.
-        around: (offsets, 3) int32 table of `full_stencil`.
+        around_cells: `around_cells(p)` -> (..., offsets) cell ids of the cells of
+            `full_stencil` around particles p.
         dense: slots in the dense tier.
     Returns:
         crowded: (K,) crowded particles in index order (N in unused rows), K =
@@ -332,8 +332,7 @@ def _crowded_rows(bound_box, frame, members, slot, cell_xyz, n_cells, around, li
         separations (K, offsets, slots, 3), kept apart from the tests that follow
         so that those run as vector loops."""
         safe = jnp.minimum(crowded, n - 1)
-        cells = (cell_xyz[safe][:, None, :] + around[None]) % jnp.asarray(n_cells)
-        cells = _cell_id(cells, n_cells)
+        cells = around_cells(safe)
         slot_frames = frame[jnp.minimum(members.T, n - 1)]
         return members.T[cells], frame[safe][:, None, None, :] - slot_frames[cells]
 
@@ -433,8 +432,8 @@ def cell_list_search(
 
     offsets = stencil(n_cells)
     around = full_stencil(n_cells)
-    around_table = jnp.asarray(around, jnp.int32)
     halo = halo_grid(n_cells)
+    halo_source = jnp.asarray(halo["source"])
     halo_index = jnp.asarray(halo["index"])
     stencil_deltas = jnp.asarray(halo_deltas(halo, offsets), jnp.int32)
     around_deltas = jnp.asarray(halo_deltas(halo, around), jnp.int32)
@@ -462,8 +461,16 @@ def cell_list_search(
         span_index = halo_index[cells]  # column of each particle's cell in the words
         dense_rows = grid_words[:, jnp.minimum(slot, dense - 1), span_index]
         dense_rows = jnp.where(slot < dense, dense_rows, jnp.uint64(0))
+
+        def padded_cell(particles):
+            """Flat padded-grid index of each particle's cell."""
+            return halo["first"] + span_index[particles]
+
+        def around_cells(particles):
+            return halo_source[padded_cell(particles)[..., None] + around_deltas]
+
         crowded, crowd, crowded_rows = _crowded_rows(
-            bound_box, frame, members, slot, cell_xyz, n_cells, around_table, list_cutoff, dense
+            bound_box, frame, members, slot, around_cells, list_cutoff, dense
         )
         dense_entries = dense_rows.size
         entry, bit, valid, total = _compact(
@@ -492,8 +499,8 @@ def cell_list_search(
             stencil_deltas[jnp.minimum(dense_candidate // row_slots, len(offsets) - 1)],
             around_deltas[jnp.minimum(crowded_candidate // cell_capacity, len(around) - 1)],
         )
-        padded_members = members[:, halo["source"]]
-        row_cell = halo["first"] + span_index[jnp.minimum(i, n_particles - 1)]
+        padded_members = members[:, halo_source]
+        row_cell = padded_cell(jnp.minimum(i, n_particles - 1))
         partner = padded_members[jnp.minimum(partner_slot, cell_capacity - 1), row_cell + delta]
         # Too many crowded particles: ask for larger cells, which hold more of them.
         crowd_overflow = crowd > crowded.shape[0]
