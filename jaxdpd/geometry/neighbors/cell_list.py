@@ -219,7 +219,7 @@ def halo_deltas(halo: dict, offsets) -> np.ndarray:
     )
 
 
-def _dense_words(bound_box, frame, members, n_cells, offsets, list_cutoff, halo):
+def _dense_words(bound_box, frame, padded_members, n_cells, offsets, list_cutoff, halo):
     """Distance tests of every dense-tier slot against the dense-tier slots of its
     stencil cells, packed into 64-bit words (layout of `_lane_layout`: lane
     o · groups + g holds slots g·32 … of the cell at offset o).
@@ -227,7 +227,8 @@ def _dense_words(bound_box, frame, members, n_cells, offsets, list_cutoff, halo)
     Args:
         bound_box: the box at this instant (frame lengths, frame → Cartesian).
         frame: (N, 3) frame coordinates of the particles.
-        members: (slots, cells) particle in each dense-tier slot (N when empty).
+        padded_members: (slots, P) particle in each dense-tier slot of each cell of
+            the padded grid (N when empty).
         offsets: the stencil, own cell first.
         halo: `halo_grid(n_cells)`.
     Returns:
@@ -237,8 +238,7 @@ def _dense_words(bound_box, frame, members, n_cells, offsets, list_cutoff, halo)
     n = frame.shape[0]
     dtype = frame.dtype
     lengths = bound_box.lengths
-    dense = members.shape[0]
-    padded_members = members[:, halo["source"]]
+    dense = padded_members.shape[0]
     empty = padded_members >= n
     safe = jnp.minimum(padded_members, n - 1)
     # Empty slots hold NaN: every comparison with them is False.  Image cells are
@@ -336,7 +336,7 @@ def _crowded_rows(bound_box, frame, members, slot, around_cells, list_cutoff, de
         slot_frames = frame[jnp.minimum(members.T, n - 1)]
         return members.T[cells], frame[safe][:, None, None, :] - slot_frames[cells]
 
-    # A liquid's step often has no crowded particle at all.
+    # A small system's step often has no crowded particle at all.
     partners, separation = _materialised(count > 0, gathered)
     lengths = jnp.asarray(bound_box.lengths, frame.dtype)
     separation = separation - lengths * jnp.round(separation / lengths)
@@ -450,10 +450,11 @@ def cell_list_search(
             cell_ids = _cell_id(cell_xyz, n_cells)
         members, slot, max_occupancy = _bin(cell_ids, n_cells_total, cell_capacity, absent_rows)
         dense = min(dense_slots, cell_capacity)
+        padded_members = members[:, halo_source]  # (slots, P): the grid with its images
         grid_words = _materialised(
             max_occupancy > 0,
             lambda: _dense_words(
-                bound_box, frame, members[:dense], n_cells, offsets, list_cutoff, halo
+                bound_box, frame, padded_members[:dense], n_cells, offsets, list_cutoff, halo
             ),
         )
         # Each dense-tier particle's row of words: (words, N).
@@ -499,7 +500,6 @@ def cell_list_search(
             stencil_deltas[jnp.minimum(dense_candidate // row_slots, len(offsets) - 1)],
             around_deltas[jnp.minimum(crowded_candidate // cell_capacity, len(around) - 1)],
         )
-        padded_members = members[:, halo_source]
         row_cell = padded_cell(jnp.minimum(i, n_particles - 1))
         partner = padded_members[jnp.minimum(partner_slot, cell_capacity - 1), row_cell + delta]
         # Too many crowded particles: ask for larger cells, which hold more of them.
