@@ -255,7 +255,7 @@ def _dense_words(bound_box, frame, padded_members, n_cells, offsets, list_cutoff
     limit = jnp.asarray(list_cutoff**2, dtype)
     groups, lane_width, per_word = _lane_layout(dense)
     n_lanes = len(offsets) * groups
-    slot_index = np.arange(dense)[:, None]
+    slot_index = np.arange(dense)[None, :, None]
     words = []
     for first_lane in range(0, n_lanes, per_word):
         word = jnp.zeros((dense, span), jnp.uint64)
@@ -263,23 +263,28 @@ def _dense_words(bound_box, frame, padded_members, n_cells, offsets, list_cutoff
             offset_index, group = divmod(lane, groups)
             offset = offsets[offset_index]
             start = first + int(halo_deltas(halo, [offset])[0])
-            neighbor = [values[:, start : start + span] for values in coordinates]
-            for bit in range(min(lane_width, dense - group * LANE_BITS)):
-                j = group * LANE_BITS + bit
-                separation = []
-                for axis in range(3):
-                    component = own[axis] - neighbor[axis][j][None]
-                    if n_cells[axis] == 1:
-                        length = jnp.asarray(lengths[axis], dtype)
-                        component = component - length * jnp.round(component / length)
-                    separation.append(component)
-                separation = bound_box.frame_to_cartesian(tuple(separation))
-                distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
-                within = distance_sq < limit
-                if offset == (0, 0, 0):  # within the own cell only slot pairs i < j count
-                    within = within & (slot_index < j)
-                shift = jnp.uint64(position * lane_width + bit)
-                word = word | (within.astype(jnp.uint64) << shift)
+            # The lane's candidate slots j along a leading axis, (bits, dense, span):
+            # traced once per lane, not per slot, so that the program (and its compile
+            # time) grows with the lanes.  The bits are OR-ed slice by slice, which XLA
+            # fuses as fast as per-slot code; a reduce over the axis ran 8-12 % slower.
+            j = np.arange(group * LANE_BITS, min((group + 1) * LANE_BITS, dense))
+            separation = []
+            for axis in range(3):
+                neighbor = coordinates[axis][j[0] : j[-1] + 1, start : start + span]
+                component = own[axis][None] - neighbor[:, None]
+                if n_cells[axis] == 1:
+                    length = jnp.asarray(lengths[axis], dtype)
+                    component = component - length * jnp.round(component / length)
+                separation.append(component)
+            separation = bound_box.frame_to_cartesian(tuple(separation))
+            distance_sq = separation[0] ** 2 + separation[1] ** 2 + separation[2] ** 2
+            within = distance_sq < limit
+            if offset == (0, 0, 0):  # within the own cell only slot pairs i < j count
+                within = within & (slot_index < j[:, None, None])
+            shifts = jnp.asarray(position * lane_width + j - j[0], jnp.uint64)[:, None, None]
+            bits = within.astype(jnp.uint64) << shifts
+            for k in range(len(j)):
+                word = word | bits[k]
         words.append(word)
     return jnp.stack(words)
 
