@@ -255,6 +255,7 @@ def _dense_words(bound_box, frame, padded_members, n_cells, offsets, list_cutoff
     limit = jnp.asarray(list_cutoff**2, dtype)
     groups, lane_width, per_word = _lane_layout(dense)
     n_lanes = len(offsets) * groups
+    offset_starts = first + halo_deltas(halo, offsets)  # each offset's slice start
     slot_index = np.arange(dense)[None, :, None]
     words = []
     for first_lane in range(0, n_lanes, per_word):
@@ -262,7 +263,7 @@ def _dense_words(bound_box, frame, padded_members, n_cells, offsets, list_cutoff
         for position, lane in enumerate(range(first_lane, min(first_lane + per_word, n_lanes))):
             offset_index, group = divmod(lane, groups)
             offset = offsets[offset_index]
-            start = first + int(halo_deltas(halo, [offset])[0])
+            start = int(offset_starts[offset_index])
             # The lane's candidate slots j along a leading axis, (bits, dense, span):
             # traced once per lane, not per slot, so that the program (and its compile
             # time) grows with the lanes.  The bits are OR-ed slice by slice, which XLA
