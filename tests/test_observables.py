@@ -120,6 +120,27 @@ def test_ideal_gas_rdf_is_one_and_pressure_is_rho_kT():
     )
 
 
+@pytest.mark.parametrize("r_max, searched_by", [(1.4, "cell list"), (2.0, "all pairs")])
+def test_rdf_counts_equal_a_brute_force_histogram(r_max, searched_by):
+    """The pair histogram of g(r) equals NumPy's of all minimum-image distances in a
+    6 r_c box, with pairs found by the cell list (4 cells per axis) or, where no axis
+    has more than three cells, from the list of all pairs."""
+    from jaxdpd.geometry.boxes import make_box
+    from jaxdpd.observables.rdf import RadialDistribution
+
+    n, bins, lengths = 500, 28, (6.0, 6.0, 6.0)
+    box = make_box("periodic", lengths)
+    positions = np.random.default_rng(3).uniform(size=(n, 3)) * np.asarray(lengths)
+    rdf = RadialDistribution(box, n, r_max, bins)
+    assert rdf._all_pairs == (searched_by == "all pairs")
+    rdf.sample(jnp.asarray(positions))
+    i, j = np.triu_indices(n, 1)
+    d = positions[i] - positions[j]
+    d -= np.asarray(lengths) * np.round(d / np.asarray(lengths))
+    expected, _ = np.histogram(np.linalg.norm(d, axis=1), bins=bins, range=(0.0, r_max))
+    np.testing.assert_array_equal(rdf.counts, expected)
+
+
 class ToyMomentum(Observable):
     """A toy observable: the scaled total momentum, with one [output] setting."""
 
