@@ -17,9 +17,6 @@ under load) and running slower, which two steps do not notice.  The flag is part
 the persistent cache's key and is restored after each run; what compiled meanwhile
 stays in the process's in-memory cache (the examples' own programs, and the odd
 generic operation, an eager jnp call, that a later test may then run unoptimised).
-The largest single cost left is g(r) in examples/dpd_fluid.toml: its own cell list
-(r_max = 3 r_c, about 110 particles per cell) compiles two programs, about 20 CPU-s
-of the first sample with full optimisation.
 """
 
 import contextlib
