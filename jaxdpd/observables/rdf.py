@@ -5,9 +5,10 @@
 with h_k the number of pairs whose minimum-image distance falls in shell k of volume
 V_k = (4π/3)(r_{k+1}³ − r_k³): an ideal gas gives g = 1 exactly in expectation.
 Pairs are found with the cell list (cut-off r_max, no skin), reallocated when a
-configuration needs more room, except where no axis has more than three cells: there
-every cell neighbours every other, the cell list would test all pairs anyway, and a
-fixed list of all pairs is as fast and compiles in a fraction of the time.
+configuration needs more room.  A fixed list of all pairs is used instead where some
+axis holds a single cell, or where no axis has more than three: there every cell
+neighbours every other, so the cell list would test all pairs anyway, and the fixed
+list runs as fast and compiles in a fraction of the time.
 """
 
 from functools import partial
@@ -44,7 +45,7 @@ class RadialDistribution:
         self.samples = 0
 
     def _every_pair(self, positions) -> PairList:
-        """All pairs i < j as a fixed list (boxes of at most three cells per axis)."""
+        """All pairs i < j as a fixed list (few cells: see the module docstring)."""
         n = self.n_particles
         i, j = np.triu_indices(n, 1)
         zero = jnp.asarray(0, jnp.int32)
