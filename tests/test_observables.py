@@ -7,9 +7,11 @@ from conftest import make_scene
 
 from jaxdpd.engine import noise
 from jaxdpd.engine.build import build
+from jaxdpd.geometry.boxes import make_box
 from jaxdpd.io.layout import reduced_unit
 from jaxdpd.observables import OBSERVABLES, reduce_samples
 from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.observables.rdf import RadialDistribution
 from jaxdpd.run.runner import simulate
 from jaxdpd.validation import SceneError
 
@@ -125,9 +127,6 @@ def test_rdf_counts_equal_a_brute_force_histogram(r_max, searched_by):
     """The pair histogram of g(r) equals NumPy's of all minimum-image distances in a
     6 r_c box, with pairs found by the cell list (4 cells per axis) or, where no axis
     has more than three cells, from the list of all pairs."""
-    from jaxdpd.geometry.boxes import make_box
-    from jaxdpd.observables.rdf import RadialDistribution
-
     n, bins, lengths = 500, 28, (6.0, 6.0, 6.0)
     box = make_box("periodic", lengths)
     positions = np.random.default_rng(3).uniform(size=(n, 3)) * np.asarray(lengths)
