@@ -13,6 +13,7 @@ its first bead), so the shares sum to the system's virial over the devices.
 import jax.numpy as jnp
 
 from jaxdpd.decomposition.slab_view import SlabState
+from jaxdpd.dyadic import dyadic_sum
 from jaxdpd.engine import errors
 from jaxdpd.engine.build import pair_term_parts
 from jaxdpd.forces.pair_sums import pair_geometry, pair_sums
@@ -68,7 +69,7 @@ def chain_bond_forces_by_identity(bound_box, positions, ids, row_of, owned, bloc
         if law.max_extension is not None:
             stretched = stretched | jnp.any(owned & live & (q_sq >= law.max_extension**2))
     forces = pulls[0] - pulls[1]
-    virial = -((owned[:, None] * springs[0]).T @ pulls[0])
+    virial = -dyadic_sum(owned[:, None] * springs[0], pulls[0])
     return forces, virial, lost, jnp.asarray(stretched)
 
 

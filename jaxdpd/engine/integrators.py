@@ -11,6 +11,7 @@ list overflow).
 import jax
 import jax.numpy as jnp
 
+from jaxdpd.dyadic import dyadic_sum
 from jaxdpd.engine import errors, noise
 from jaxdpd.geometry import flows
 
@@ -238,8 +239,8 @@ def collide_and_stream(
             virial = {
                 **virial,
                 "streaming": free_flight_stress(bound.velocity_gradient, collided, weights, dt_)
-                + before.T @ collided
-                - after.T @ velocities,
+                + dyadic_sum(before, collided)
+                - dyadic_sum(after, velocities),
             }
         return refreshed.set(
             positions=positions,
@@ -275,7 +276,7 @@ def free_flight_stress(gradient, velocities, weights, duration):
         (3, 3) tensor, added to the kinetic one as the virial part "streaming".
     """
     weighted = weights[:, None] * velocities
-    dyad = velocities.T @ weighted  # Σ w c c^T
+    dyad = dyadic_sum(velocities, weighted)  # Σ w c c^T
     drifted = gradient @ dyad
     return -0.5 * duration * (drifted + drifted.T) + (duration**2 / 3) * drifted @ gradient.T
 

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 
+from jaxdpd.dyadic import dyadic_sum
 from jaxdpd.forces.pair_laws import WCA_RANGE_FACTOR, wca_energy, wca_force_over_distance
 from jaxdpd.registry import Registry
 from jaxdpd.validation import REQUIRED, check_keys, read_choice, read_number
@@ -380,7 +381,7 @@ def chain_bond_forces(box, positions, image, law: Bond, with_virial: bool, half_
     else:
         overstretched = jnp.any(q_sq >= law.max_extension**2)
     if with_virial:
-        virial = -jnp.einsum("cka,ckb->ab", springs, pull)
+        virial = -dyadic_sum(springs, pull)
     else:
         virial = jnp.zeros((3, 3), positions.dtype)
     return ChainBondResult(forces, virial, overstretched, past_half_box)

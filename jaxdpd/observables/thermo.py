@@ -15,6 +15,7 @@ import numpy as np
 
 from jaxdpd.analysis.elongation import elongational_material_functions
 from jaxdpd.analysis.rheology import normal_stress_differences, shear_rheology
+from jaxdpd.dyadic import dyadic_sum
 from jaxdpd.observables.component import (
     Observable,
     long_enough,
@@ -27,8 +28,8 @@ from jaxdpd.observables.component import (
 def kinetic_tensor(velocities, masses=None):
     """Σ_i m_i v_ia v_ib, (3, 3); `masses` (N,) or None for unit masses."""
     if masses is None:
-        return velocities.T @ velocities
-    return (masses[:, None] * velocities).T @ velocities
+        return dyadic_sum(velocities, velocities)
+    return dyadic_sum(masses[:, None] * velocities, velocities)
 
 
 def system_kinetic_tensor(ownership, state):

@@ -20,6 +20,7 @@ import math
 
 import jax.numpy as jnp
 
+from jaxdpd.dyadic import dyadic_sum
 from jaxdpd.engine import noise
 from jaxdpd.solvents.mpcd.cells import bin_particles, cell_totals, grid_shift
 from jaxdpd.trigonometry import sincos_turns
@@ -204,7 +205,7 @@ def collisional_virial(local, velocity_changes, masses):
     profile gives η_coll of Mussawisade et al. eq. 6 (see tests/test_mpcd_transport).
     """
     momenta = velocity_changes if masses is None else masses[:, None] * velocity_changes
-    return local.T @ momenta
+    return dyadic_sum(local, momenta)
 
 
 def srd_collision(

@@ -1,0 +1,100 @@
+"""Dyadic sums as reductions (jaxdpd.dyadic) against the matrix products they replaced.
+
+Every jaxdpd module that uses `dyadic_sum` (kinetic tensor, virials, conformation
+tensors) is given the matrix-product form `a.T @ b` while a step compiles, then the
+library's own; the two compiled chunks of each scene run in alternating rounds in one
+process from the same state.  Scenes: the MPCD fluid of benchmarks/mpcd_throughput.py
+(temperature observed) and the Groot–Warren fluid of benchmarks/dpd_throughput.py
+(temperature and pressure observed, equilibrated by the driver).  Prints the rate of
+each, their ratio, whether the trajectories are bit-identical, and the largest
+difference of the samples relative to their scale.
+
+    python benchmarks/dyadic_sum_ab.py [--mpcd-size 100000] [--dpd-size 24000]
+        [--steps 20] [--rounds 8]
+"""
+
+import argparse
+import statistics
+import sys
+
+import jax
+import numpy as np
+from _common import alternating_rates, ratio_summary
+from dpd_throughput import equilibrated_fluid, fluid_scene
+from mpcd_throughput import solvent_scene
+
+import jaxdpd.dyadic
+from jaxdpd.engine.build import build
+from jaxdpd.run import driver
+
+
+def matrix_product(a, b):
+    """Σ_i a_i ⊗ b_i as the product of the transposed rows: the form before dyadic_sum."""
+    return a.reshape(-1, a.shape[-1]).T @ b.reshape(-1, b.shape[-1])
+
+
+def compiled_chunk(scene, state, steps: int, form):
+    """The driver's compiled chunk of `scene` with every module's dyadic_sum set to
+    `form` while it compiles (`build` is cached per scene, so its uncached function is
+    called)."""
+    users = [
+        module
+        for name, module in sys.modules.items()
+        if name.startswith("jaxdpd.") and getattr(module, "dyadic_sum", None) is not None
+    ]
+    saved = jaxdpd.dyadic.dyadic_sum
+    for module in users:
+        module.dyadic_sum = form
+    try:
+        simulation = build.__wrapped__(scene)
+        state = simulation.init_fn() if state is None else state
+        return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
+    finally:
+        for module in users:
+            module.dyadic_sum = saved
+
+
+def sample_difference(samples, reference) -> float:
+    """Largest |difference| of any sample over that sample's largest |value|."""
+    pairs = zip(jax.tree.leaves(samples), jax.tree.leaves(reference), strict=True)
+    return max(
+        float(np.max(np.abs(np.asarray(a, np.float64) - np.asarray(b, np.float64))))
+        / max(float(np.max(np.abs(np.asarray(b, np.float64)))), 1e-300)
+        for a, b in pairs
+    )
+
+
+def compare(label: str, scene, state, steps: int, rounds: int) -> None:
+    base, state = compiled_chunk(scene, state, steps, matrix_product)
+    this, _ = compiled_chunk(scene, state, steps, jaxdpd.dyadic.dyadic_sum)
+    (base_state, base_samples), (this_state, this_samples) = base(state), this(state)
+    identical = np.array_equal(
+        np.asarray(base_state.velocities), np.asarray(this_state.velocities)
+    ) and np.array_equal(np.asarray(base_state.positions), np.asarray(this_state.positions))
+    rates = alternating_rates(
+        {"base": lambda: base(state), "this": lambda: this(state)},
+        scene.n_particles * steps,
+        rounds,
+    )
+    print(
+        f"{label}, N = {scene.n_particles}: trajectory bit-identical: {identical}; samples "
+        f"differ by {sample_difference(this_samples, base_samples):.1e} of their scale; "
+        f"matrix product {statistics.median(rates['base']):.3g}/s, reductions "
+        f"{statistics.median(rates['this']):.3g}/s, {ratio_summary(rates)}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--mpcd-size", type=int, default=100_000)
+    parser.add_argument("--dpd-size", type=int, default=24_000)
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--rounds", type=int, default=8)
+    args = parser.parse_args()
+    compare("MPCD", solvent_scene(args.mpcd_size, "float32"), None, args.steps, args.rounds)
+    _, fluid = equilibrated_fluid(args.dpd_size)
+    compare("DPD", fluid_scene(args.dpd_size, "float32"), fluid, args.steps, args.rounds)
+
+
+if __name__ == "__main__":
+    main()
