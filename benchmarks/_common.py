@@ -23,8 +23,27 @@ def machine() -> dict:
         "jax_backend": device.platform,
         "device": str(device.device_kind),
         "cpu_count": __import__("os").cpu_count(),
+        "cpu": cpu_description(),
         "jax": jax.__version__,
     }
+
+
+def cpu_description() -> dict:
+    """The CPU's model, family and widest vector extension from /proc/cpuinfo ({} where
+    there is none): machines of one name differ (an AVX2 and an AVX-512 EPYC ran the
+    same benchmarks a factor of two apart), so results say which one they came from."""
+    try:
+        first = Path("/proc/cpuinfo").read_text().split("\n\n")[0]
+    except OSError:
+        return {}
+    fields = dict(
+        (key.strip(), value.strip())
+        for key, _, value in (line.partition(":") for line in first.splitlines())
+    )
+    flags = fields.get("flags", "").split()
+    vector = next((name for name in ("avx512f", "avx2", "sse4_2") if name in flags), "")
+    keys = ("model name", "cpu family", "model", "cache size")
+    return {**{key: fields[key] for key in keys if key in fields}, "vector": vector}
 
 
 def peak_rss_mib() -> float:
