@@ -1,12 +1,10 @@
 """Sums of dyadic products over rows: Σ_i a_i ⊗ b_i.
 
 Kinetic tensors, virials and conformation tensors are all such sums over particles,
-pairs or springs.  Written as `a.T @ b` they are matrix products with a contraction
-of length N and a 3 × 3 result, which XLA:CPU runs as one sequential float32
-accumulation per entry (relative error ~u√N: 2·10⁻⁵ for 10⁵ unit-variance
-velocities) at about 1 GFLOP/s.  As reductions over the rows they are summed in
-blocks (relative error ~u) and vectorised: the MPCD step with its temperature
-observed ran 1.48× faster (docs/performance_solvents.md).
+pairs or springs.  Written as `a.T @ b` inside `jit`, XLA:CPU compiles them to a loop
+that accumulates each of the 3 × 3 entries in sequence: slow, and in float32 off by
+about u√N relative.  As reductions over the rows they are vectorised and summed in
+blocks (about u).  Figures: docs/performance_solvents.md.
 """
 
 import jax.numpy as jnp
