@@ -29,9 +29,11 @@ def machine() -> dict:
 
 
 def cpu_description() -> dict:
-    """The CPU's model, family and widest vector extension from /proc/cpuinfo ({} where
-    there is none): machines of one name differ (an AVX2 and an AVX-512 EPYC ran the
-    same benchmarks a factor of two apart), so results say which one they came from."""
+    """The CPU's model, family, cache and widest x86 vector extension from the first
+    processor in /proc/cpuinfo ({} where there is none; "cache size" is the L2 per core
+    on AMD, the L3 on Intel): machines of one name differ (an AVX2 and an AVX-512 EPYC
+    ran the same benchmarks a factor of two apart), so results say which one they came
+    from."""
     try:
         first = Path("/proc/cpuinfo").read_text().split("\n\n")[0]
     except OSError:
@@ -41,9 +43,12 @@ def cpu_description() -> dict:
         for key, _, value in (line.partition(":") for line in first.splitlines())
     )
     flags = fields.get("flags", "").split()
-    vector = next((name for name in ("avx512f", "avx2", "sse4_2") if name in flags), "")
     keys = ("model name", "cpu family", "model", "cache size")
-    return {**{key: fields[key] for key in keys if key in fields}, "vector": vector}
+    description = {key: fields[key] for key in keys if key in fields}
+    vector = [name for name in ("avx512f", "avx2", "sse4_2") if name in flags]
+    if vector:
+        description["vector"] = vector[0]
+    return description
 
 
 def peak_rss_mib() -> float:

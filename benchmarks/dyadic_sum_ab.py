@@ -15,7 +15,6 @@ difference of the samples relative to their scale.
 
 import argparse
 import statistics
-import sys
 
 import jax
 import numpy as np
@@ -23,9 +22,28 @@ from _common import alternating_rates, ratio_summary
 from dpd_throughput import equilibrated_fluid, fluid_scene
 from mpcd_throughput import solvent_scene
 
+import jaxdpd.decomposition.forces
 import jaxdpd.dyadic
+import jaxdpd.engine.integrators
+import jaxdpd.forces.bonds
+import jaxdpd.forces.spring_repulsion
+import jaxdpd.observables.domain_chains
+import jaxdpd.observables.thermo
+import jaxdpd.solvents.mpcd.collision
 from jaxdpd.engine.build import build
 from jaxdpd.run import driver
+
+# Every module that uses dyadic_sum: imported here, so that none is first imported
+# while a base chunk compiles, and patched by name.
+USERS = (
+    jaxdpd.decomposition.forces,
+    jaxdpd.engine.integrators,
+    jaxdpd.forces.bonds,
+    jaxdpd.forces.spring_repulsion,
+    jaxdpd.observables.domain_chains,
+    jaxdpd.observables.thermo,
+    jaxdpd.solvents.mpcd.collision,
+)
 
 
 def matrix_product(a, b):
@@ -37,20 +55,15 @@ def compiled_chunk(scene, state, steps: int, form):
     """The driver's compiled chunk of `scene` with every module's dyadic_sum set to
     `form` while it compiles (`build` is cached per scene, so its uncached function is
     called)."""
-    users = [
-        module
-        for name, module in sys.modules.items()
-        if name.startswith("jaxdpd.") and getattr(module, "dyadic_sum", None) is not None
-    ]
     saved = jaxdpd.dyadic.dyadic_sum
-    for module in users:
+    for module in USERS:
         module.dyadic_sum = form
     try:
         simulation = build.__wrapped__(scene)
         state = simulation.init_fn() if state is None else state
         return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
     finally:
-        for module in users:
+        for module in USERS:
             module.dyadic_sum = saved
 
 
