@@ -95,6 +95,27 @@ def module_from_file(path: Path, name: str):
     return module
 
 
+def compiled_chunk(scene, state, steps: int, replacements=()):
+    """(the driver's compiled chunk of `scene`, the state it starts from): `state`, or
+    the scene's initial state if None.  Each (module, name, value) of `replacements` is
+    in place while the step is built and compiled, and restored after, so that an A/B
+    benchmark can compile a base variant beside this tree's.  `build` is cached per
+    scene, so its uncached function is called."""
+    from jaxdpd.engine.build import build
+    from jaxdpd.run import driver
+
+    saved = [(module, name, getattr(module, name)) for module, name, _ in replacements]
+    for module, name, value in replacements:
+        setattr(module, name, value)
+    try:
+        simulation = build.__wrapped__(scene)
+        state = simulation.init_fn() if state is None else state
+        return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
+    finally:
+        for module, name, value in saved:
+            setattr(module, name, value)
+
+
 def alternating_rates(runs: dict, work: float, rounds: int) -> dict:
     """{label: [work per second, one per round]} of the argument-free callables in
     `runs` (their results blocked on), each timed once per round, in reverse order

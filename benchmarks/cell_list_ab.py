@@ -16,25 +16,10 @@ import statistics
 from pathlib import Path
 
 import numpy as np
-from _common import alternating_rates, module_from_file, ratio_summary
+from _common import alternating_rates, compiled_chunk, module_from_file, ratio_summary
 from dpd_throughput import equilibrated_fluid
 
-from jaxdpd.engine.build import build
 from jaxdpd.geometry.neighbors import cell_list
-from jaxdpd.run import driver
-
-
-def compiled_chunk(scene, state, steps: int, cell_list_module=None):
-    """The compiled chunk of `scene` for `state`'s buffers; with `cell_list_module`'s
-    search if given.  `build` is cached per scene, so its uncached function is called."""
-    saved = cell_list.cell_list_search
-    if cell_list_module is not None:
-        cell_list.cell_list_search = cell_list_module.cell_list_search
-    try:
-        simulation = build.__wrapped__(scene)
-        return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile()
-    finally:
-        cell_list.cell_list_search = saved
 
 
 def main() -> None:
@@ -49,9 +34,10 @@ def main() -> None:
     )
     for n in args.sizes:
         simulation, state = equilibrated_fluid(n)
+        replacements = [(cell_list, "cell_list_search", base_module.cell_list_search)]
         runs = {
-            "base": compiled_chunk(simulation.scene, state, args.steps, base_module),
-            "this": compiled_chunk(simulation.scene, state, args.steps),
+            "base": compiled_chunk(simulation.scene, state, args.steps, replacements)[0],
+            "this": compiled_chunk(simulation.scene, state, args.steps)[0],
         }
         (base_state, _), (this_state, _) = runs["base"](state), runs["this"](state)
         identical = np.array_equal(

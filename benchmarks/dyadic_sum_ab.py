@@ -18,23 +18,20 @@ import statistics
 
 import jax
 import numpy as np
-from _common import alternating_rates, ratio_summary
+from _common import alternating_rates, compiled_chunk, ratio_summary
 from dpd_throughput import equilibrated_fluid, fluid_scene
 from mpcd_throughput import solvent_scene
 
 import jaxdpd.decomposition.forces
-import jaxdpd.dyadic
 import jaxdpd.engine.integrators
 import jaxdpd.forces.bonds
 import jaxdpd.forces.spring_repulsion
 import jaxdpd.observables.domain_chains
 import jaxdpd.observables.thermo
 import jaxdpd.solvents.mpcd.collision
-from jaxdpd.engine.build import build
-from jaxdpd.run import driver
 
 # Every module that uses dyadic_sum: imported here, so that none is first imported
-# while a base chunk compiles, and patched by name.
+# while a base chunk compiles, and each given the form under test by name.
 USERS = (
     jaxdpd.decomposition.forces,
     jaxdpd.engine.integrators,
@@ -51,22 +48,6 @@ def matrix_product(a, b):
     return a.reshape(-1, a.shape[-1]).T @ b.reshape(-1, b.shape[-1])
 
 
-def compiled_chunk(scene, state, steps: int, form):
-    """The driver's compiled chunk of `scene` with every module's dyadic_sum set to
-    `form` while it compiles (`build` is cached per scene, so its uncached function is
-    called)."""
-    saved = jaxdpd.dyadic.dyadic_sum
-    for module in USERS:
-        module.dyadic_sum = form
-    try:
-        simulation = build.__wrapped__(scene)
-        state = simulation.init_fn() if state is None else state
-        return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
-    finally:
-        for module in USERS:
-            module.dyadic_sum = saved
-
-
 def sample_difference(samples, reference) -> float:
     """Largest |difference| of any sample over that sample's largest |value|."""
     pairs = zip(jax.tree.leaves(samples), jax.tree.leaves(reference), strict=True)
@@ -78,8 +59,9 @@ def sample_difference(samples, reference) -> float:
 
 
 def compare(label: str, scene, state, steps: int, rounds: int) -> None:
-    base, state = compiled_chunk(scene, state, steps, matrix_product)
-    this, _ = compiled_chunk(scene, state, steps, jaxdpd.dyadic.dyadic_sum)
+    replacements = [(module, "dyadic_sum", matrix_product) for module in USERS]
+    base, state = compiled_chunk(scene, state, steps, replacements)
+    this, _ = compiled_chunk(scene, state, steps)
     (base_state, base_samples), (this_state, this_samples) = base(state), this(state)
     identical = np.array_equal(
         np.asarray(base_state.velocities), np.asarray(this_state.velocities)

@@ -16,26 +16,10 @@ import statistics
 from pathlib import Path
 
 import numpy as np
-from _common import alternating_rates, module_from_file, ratio_summary
+from _common import alternating_rates, compiled_chunk, module_from_file, ratio_summary
 from mpcd_throughput import solvent_scene
 
-from jaxdpd.engine.build import build
-from jaxdpd.run import driver
 from jaxdpd.solvents.mpcd import step as mpcd_step_module
-
-
-def compiled_chunk(scene, steps: int, collision_module=None):
-    """(compiled chunk, initial state); with `collision_module`'s SRD collision if given.
-    `build` is cached per scene, so its uncached function is called."""
-    saved = mpcd_step_module.srd_collision
-    if collision_module is not None:
-        mpcd_step_module.srd_collision = collision_module.srd_collision
-    try:
-        simulation = build.__wrapped__(scene)
-        state = simulation.init_fn()
-        return driver._scan_chunk.lower(simulation.step_fn, state, steps).compile(), state
-    finally:
-        mpcd_step_module.srd_collision = saved
 
 
 def main() -> None:
@@ -47,14 +31,12 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=6)
     args = parser.parse_args()
     scene = solvent_scene(args.size, args.precision)
-    base_chunk, _ = compiled_chunk(
-        scene,
-        args.steps,
-        module_from_file(
-            args.base / "jaxdpd" / "solvents" / "mpcd" / "collision.py", "base_mpcd_collision"
-        ),
+    base_collision = module_from_file(
+        args.base / "jaxdpd" / "solvents" / "mpcd" / "collision.py", "base_mpcd_collision"
     )
-    this_chunk, state = compiled_chunk(scene, args.steps)
+    replacements = [(mpcd_step_module, "srd_collision", base_collision.srd_collision)]
+    base_chunk, _ = compiled_chunk(scene, None, args.steps, replacements)
+    this_chunk, state = compiled_chunk(scene, None, args.steps)
     runs = {"base": base_chunk, "this": this_chunk}
     (base_state, _), (this_state, _) = runs["base"](state), runs["this"](state)
     identical = np.array_equal(np.asarray(base_state.velocities), np.asarray(this_state.velocities))
