@@ -16,8 +16,8 @@ N = 30 in 18³ nodes with the parameters of Ahlrichs & Dünweg (1999, Table I: �
 
 Usage:
     python benchmarks/lattice_boltzmann_throughput.py [--sizes 32 64] [--steps 50]
-        [--precisions float32 float64]
-Writes benchmarks/results/lattice_boltzmann_throughput.json.
+        [--precisions float32 float64] [--output lattice_boltzmann_throughput]
+Writes benchmarks/results/<output>.json.
 """
 
 import argparse
@@ -105,6 +105,7 @@ def main():
     parser.add_argument("--steps", type=int, default=50)
     parser.add_argument("--precisions", nargs="+", default=["float32", "float64"])
     parser.add_argument("--chain-steps", type=int, default=5000)
+    parser.add_argument("--output", default="lattice_boltzmann_throughput", help="results name")
     args = parser.parse_args()
     jaxdpd.enable_float64()  # float64 lattices are made here, before any build
     rows = [
@@ -122,9 +123,7 @@ def main():
     print_table(
         ["precision", "md_steps_per_s", "bead_steps_per_s", "lattice_MLUPS", "compile_s"], chains
     )
-    path = write_json(
-        "lattice_boltzmann_throughput", {"lattice": rows, "chain": chains, "args": vars(args)}
-    )
+    path = write_json(args.output, {"lattice": rows, "chain": chains, "args": vars(args)})
     print(f"\nwrote {path}")
 
 
