@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 
+from jaxdpd.segment import segment_sum_where
+
 
 @dataclass(frozen=True)
 class PairGeometry:
@@ -142,9 +144,9 @@ def pair_sums(geometry: PairGeometry, magnitudes: dict, with_virial: bool, viria
     columns = []
     for separation in geometry.separation:
         component = total * separation
-        column = jax.ops.segment_sum(component, geometry.i, n)
+        column = segment_sum_where(component, geometry.i, geometry.within, n)
         if geometry.half:
-            column = column - jax.ops.segment_sum(component, geometry.j, n)
+            column = column - segment_sum_where(component, geometry.j, geometry.within, n)
         columns.append(column)
     virials = {}
     if with_virial:

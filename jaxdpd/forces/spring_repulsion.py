@@ -52,12 +52,12 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd import pytree
 from jaxdpd.dyadic import dyadic_sum
+from jaxdpd.segment import segment_sum_where
 
 SPRING_REPULSION_LAWS = ("exponential", "linear")
 
@@ -373,7 +373,7 @@ def segment_forces(geometry: SpringPairGeometry, magnitude, n_particles: int):
     shares = jnp.concatenate(
         [(0.5 - t1) * force, (0.5 + t1) * force, (t2 - 0.5) * force, -(0.5 + t2) * force]
     )
-    return jax.ops.segment_sum(shares, indices, n_particles)
+    return segment_sum_where(shares, indices, jnp.tile(geometry.active, 4), n_particles)
 
 
 def segment_virial(geometry: SpringPairGeometry, magnitude):

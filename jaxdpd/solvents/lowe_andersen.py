@@ -70,6 +70,7 @@ from jaxdpd.engine.integrators import thermalized_velocity_verlet
 from jaxdpd.engine.ownership import WHOLE_SYSTEM
 from jaxdpd.forces.pair_sums import pair_geometry
 from jaxdpd.scene_examples import chain_solution_example
+from jaxdpd.segment import segment_sum_where
 from jaxdpd.solvents import component
 from jaxdpd.solvents.groot_warren import velocity_verlet
 from jaxdpd.validation import read_number
@@ -246,7 +247,9 @@ def _half_edges(
     tie_break = (sorted_keys & index_mask).astype(jnp.int32)
     partner_identity = ownership.identity_of(jnp.minimum(owner, rows - 1)) ^ tie_break
     ones = chosen.astype(jnp.int32)
-    counts = jax.ops.segment_sum(ones, pair_i, rows) + jax.ops.segment_sum(ones, pair_j, rows)
+    counts = segment_sum_where(ones, pair_i, chosen, rows) + segment_sum_where(
+        ones, pair_j, chosen, rows
+    )
     stop = jnp.cumsum(counts, dtype=jnp.int32)
     return _HalfEdges(owner, ownership.row_of(partner_identity), tie_break, stop - counts, stop)
 
