@@ -206,6 +206,40 @@ def test_crowded_particles_are_listed_and_too_many_ask_for_larger_cells():
     assert listed_pairs(bigger, n) == set(brute_force_pairs(many, lengths, 1.0))
 
 
+def test_a_dilute_box_gets_larger_cells_and_still_lists_every_pair():
+    """300 particles in a 6 × 3000 × 6 box: cells of edge r_c = 1 would number
+    6 · 3000 · 6 = 108000, 360 per particle. The grid is capped at 4 N = 1200 cells by
+    halving the longest axis (3000 → 1500 → 750 → 375 → 187 → 93 → 46 → 23 cells of
+    edge ≥ 130), and the list must still be the brute-force pair set. The particles sit
+    in three clumps of 100 (one across the periodic boundary along y, one across a cell
+    face) so that there are pairs to find."""
+    lengths, n = (6.0, 3000.0, 6.0), 300
+    box = PeriodicBox(lengths)
+    assert cell_grid(box, 1.0) == (6, 3000, 6)
+    assert cell_grid(box, 1.0, n) == (6, 23, 6)
+    rng = np.random.default_rng(5)
+    centres = [2.0, 1500.0, 3000.0 * 8 / 23]  # the last on a face between two cells
+    positions = np.concatenate(
+        [rng.uniform(-1.5, 1.5, (100, 3)) + np.array([3.0, y, 3.0]) for y in centres]
+    ) % np.asarray(lengths)
+    search = neighbor_search(box, n, 1.0, 0.0)
+    pair_list = search.allocate(jnp.asarray(positions, jnp.float64))
+    assert not bool(pair_list.overflow)
+    reference = brute_force_pairs(positions, lengths, 1.0)
+    assert len(reference) > 1000
+    assert listed_pairs(pair_list, n) == set(reference)
+
+
+def test_a_box_far_larger_than_its_particles_builds_a_small_grid():
+    """The scene fuzzer's box of 5.85 × 10⁷ × 5.85 with 600 particles: uncapped, its
+    padded cell grid of 2.5·10⁸ cells took more than the fuzzer's 20 s and over 10 GB on
+    the host. Capped, it has at most 4 N cells."""
+    box = PeriodicBox((5.85, 1e7, 5.85))
+    assert np.prod(cell_grid(box, 1.0, 600)) <= 4 * 600
+    positions = jnp.asarray(np.random.default_rng(0).uniform(0, 1, (600, 3)) * box.lengths)
+    assert not bool(neighbor_search(box, 600, 1.0, 0.0).allocate(positions).overflow)
+
+
 @pytest.mark.parametrize("count, density, side", [(3000, 3.0, 10), (24000, 3.0, 20), (81, 3.0, 3)])
 def test_a_cubic_box_of_a_perfect_cube_volume_has_the_exact_side_and_cell_grid(
     count, density, side

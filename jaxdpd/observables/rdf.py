@@ -37,7 +37,7 @@ class RadialDistribution:
 
     def __init__(self, box, n_particles: int, r_max: float, bins: int):
         self.box, self.n_particles, self.r_max, self.bins = box, n_particles, r_max, bins
-        grid = cell_grid(box, r_max)
+        grid = cell_grid(box, r_max, n_particles)
         self._all_pairs = min(grid) < 3 or max(grid) <= 3
         self._search = None if self._all_pairs else neighbor_search(box, n_particles, r_max, 0.0)
         self._pairs = None

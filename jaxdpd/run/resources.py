@@ -141,7 +141,8 @@ def cell_count(scene, box) -> float:
     """Cells of the neighbour grid of a cell-list scene (a float: inf beyond 1e308)."""
     from jaxdpd.geometry.neighbors.cell_list import cell_grid
 
-    return math.prod(float(n) for n in cell_grid(box, scene.cutoff + scene.neighbors.skin))
+    reach = scene.cutoff + scene.neighbors.skin
+    return math.prod(float(n) for n in cell_grid(box, reach, scene.n_particles))
 
 
 def _check_cell_occupancy(scene, box) -> None:

@@ -52,6 +52,7 @@ from jaxdpd.precision import enable_float64
 
 LANE_BITS = 32  # candidate slots per distance-test lane (uint32)
 WORD_BITS = 64  # bits per packed row word (uint64)
+CELLS_PER_PARTICLE = 4  # most cells per particle of the grid (`cell_grid`)
 
 
 def _running(op, values):
@@ -64,14 +65,27 @@ def _running(op, values):
     return jax.lax.associative_scan(op, values)
 
 
-def cell_grid(box, list_cutoff: float) -> tuple[int, int, int]:
+def cell_grid(box, list_cutoff: float, n_particles: int | None = None) -> tuple[int, int, int]:
     """Cells per frame axis: ⌊h/r_list⌋ with h the box's thinnest extent along that
     axis (`box.cell_heights`: the edge of a box at rest), or 1 where that would be
-    fewer than 3."""
+    fewer than 3.
+
+    Given `n_particles`, a dilute box gets fewer, larger cells: the axis with the most
+    cells is halved until the grid has at most CELLS_PER_PARTICLE · N cells (27 at
+    least), so that the grid's memory and the work per step stay O(N) however large
+    the box (a 600-particle box 10⁷ long would otherwise need 2.5·10⁸ cells). Larger
+    cells only add candidates that the distance test rejects.
+    """
     counts = []
     for height in box.cell_heights:
         n = int(math.floor(height / list_cutoff))
         counts.append(n if n >= 3 else 1)
+    if n_particles is not None:
+        limit = max(CELLS_PER_PARTICLE * n_particles, 27)
+        while math.prod(counts) > limit:
+            axis = counts.index(max(counts))
+            halved = counts[axis] // 2
+            counts[axis] = halved if halved >= 3 else 1
     return tuple(counts)
 
 
@@ -432,7 +446,7 @@ def cell_list_search(
     """
     enable_float64()  # rows are packed into uint64 words
     list_cutoff = cutoff + skin
-    n_cells = cell_grid(box, list_cutoff)
+    n_cells = cell_grid(box, list_cutoff, n_particles)
     n_cells_total = math.prod(n_cells)
     cell_size = tuple(length / n for length, n in zip(box.lengths, n_cells, strict=True))
 
