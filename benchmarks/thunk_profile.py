@@ -1,8 +1,9 @@
 """Where a compiled computation's time goes: wall time per XLA operation.
 
 XLA's CPU runtime records every operation it executes (a fusion, a sort, a
-scatter, a YNNPACK call) in JAX's profiler trace.  `thunk_times` runs a callable
-under `jax.profiler.trace` and sums those records by operation name, so the
+scatter, a YNNPACK call) in JAX's profiler trace, and on a GPU the trace holds each
+kernel's device time per stream.  `thunk_times` runs a callable under
+`jax.profiler.trace` and sums those records by operation name, so the
 optimised program's costly fusions can be found by name in its HLO text
 (`jax.jit(f).lower(...).compile().as_text()`).  The times carry the profiler's own
 overhead (a few µs per operation) and the machine's load; a conditional's or a
@@ -14,34 +15,39 @@ on one core (`taskset -c 0 python ...`) to see what each operation computes.
 
 Usage (the DPD fluid's step at N = 3000, 100 steps; prints the top operations):
     python benchmarks/thunk_profile.py --size 3000 --steps 100 --top 30
+    python benchmarks/thunk_profile.py --size 1000000 --steps 20    # on a GPU
 """
 
 import argparse
 import collections
-import gzip
-import json
 import re
 import tempfile
 from pathlib import Path
 
 import jax
+from jax.profiler import ProfileData
 
 WRAPPERS = ("ThunkExecutor", "PjitFunction", "CommonPjRt")
 
 
 def thunk_times(function, *args) -> collections.Counter:
-    """{operation name: total µs} of one call of `function(*args)` (blocked on)."""
+    """{operation name: total µs} of one call of `function(*args)` (blocked on): the
+    CPU runtime's operation records, or on a GPU the device time of its kernels."""
     with tempfile.TemporaryDirectory() as directory:
-        with jax.profiler.trace(directory, create_perfetto_trace=True):
+        with jax.profiler.trace(directory):
             jax.block_until_ready(function(*args))
-        trace = next(Path(directory).rglob("*perfetto_trace.json.gz"))
-        events = json.load(gzip.open(trace))["traceEvents"]
+        planes = ProfileData.from_file(str(next(Path(directory).rglob("*.xplane.pb")))).planes
+    on_gpu = jax.default_backend() == "gpu"
     totals = collections.Counter()
-    for event in events:
-        name = event.get("name", "")
-        if event.get("ph") != "X" or name.startswith("$") or name.startswith(WRAPPERS):
+    for plane in planes:
+        if ("GPU" in plane.name) != on_gpu:
             continue
-        totals[name] += event.get("dur", 0)
+        for line in plane.lines:
+            if line.name == "python":  # the host's Python calls
+                continue
+            for event in line.events:
+                if not event.name.startswith(WRAPPERS):
+                    totals[event.name] += event.duration_ns / 1e3
     return totals
 
 
