@@ -6,7 +6,8 @@
 #   QUICK=1 bash benchmarks/gpu_table.sh           # small sizes, gpu_quick_*: checks it
 #
 # Each benchmark has its own time limit, so that one that hangs or fails leaves the
-# others' results. The log goes to benchmarks/results/gpu_table.log; COPY_TO, if given,
+# others' results (a benchmark stopped at its limit writes no JSON, only its log
+# lines); the script exits 1 if any of them failed. The log goes to benchmarks/results/gpu_table.log; COPY_TO, if given,
 # receives the log and the JSON files (a lent machine returns one folder). jax-md is
 # not needed: the scenes timed here use jaxdpd's own cell list.
 set -u
@@ -24,12 +25,15 @@ else
 fi
 log=results/${name}_table.log
 
+failed=0
 run() {  # run SECONDS SCRIPT ARGS...: one benchmark, its output appended to the log
-  local limit=$1
+  local limit=$1 status
   shift
   echo "== $(date -u +%H:%M:%S) python $*" | tee -a "$log"
   timeout "$limit" python "$@" 2>&1 | tee -a "$log"
-  echo "== exit ${PIPESTATUS[0]}" | tee -a "$log"
+  status=${PIPESTATUS[0]}
+  echo "== exit $status" | tee -a "$log"
+  [ "$status" = 0 ] || failed=$((failed + 1))
 }
 
 { nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=csv || true
@@ -49,3 +53,4 @@ if [ -n "$copy_to" ]; then
   done
   cp "$log" "$copy_to"
 fi
+[ "$failed" = 0 ] || { echo "$failed benchmark(s) failed; see $log"; exit 1; }

@@ -143,6 +143,23 @@ def compare_compiled(base_tree: Path) -> list[dict]:
     return rows
 
 
+def revisions(base: str) -> dict:
+    """The compared revisions as commits: `base` as given and resolved, HEAD, and
+    whether the working tree (which is what "head" times) had uncommitted changes."""
+
+    def git(*arguments) -> str:
+        return subprocess.run(
+            ["git", *arguments], cwd=REPOSITORY, check=True, capture_output=True, text=True
+        ).stdout.strip()
+
+    return {
+        "base": base,
+        "base_commit": git("rev-parse", base),
+        "head_commit": git("rev-parse", "HEAD"),
+        "head_uncommitted_changes": bool(git("status", "--porcelain", "--untracked-files=no")),
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--base", help="git revision to compare against (required)")
@@ -200,7 +217,7 @@ def main() -> None:
         for name in best["base"]
     ]
     print_table(["figure", "base", "head", "head/base", "round ratios"], rows)
-    path = write_json("revision_throughput", {"base": args.base, "rounds": rows})
+    path = write_json("revision_throughput", {**revisions(args.base), "rounds": rows})
     print(f"wrote {path}")
 
 

@@ -11,15 +11,14 @@ dumbbell-step) are counted two ways:
 
 The machine is measured in the same run: the copy bandwidth B of the state's arrays
 (benchmarks/_common.copy_bandwidth), a flop rate F (jitted multiply-adds, 2 flops each,
-8 independent chains of 8 per element over 64 Ki values on a CPU, in cache, both
-cores; 4 Mi on a GPU) and a
-transcendental rate T (the same with square roots).  Memory time = bytes / B;
-compute time = flops / F + transcendentals / T.  It is optimistic: a division or an
-integer operation counts as one flop, every transcendental (a logarithm, an arccosine)
-as a square root.  The binding bound is the update rate at the larger of the two
-times; the fraction is the measured rate over it (`fraction`: memory time from the
-minimal bytes; `fraction_xla_bytes`: from XLA's bytes).  The machine is shared:
-figures vary 2-4x with load; ratios within one run are what count.
+8 independent chains of 8 per element over 64 Ki values on a CPU, in cache, both cores;
+4 Mi on a GPU) and a transcendental rate T (the same with square roots). Memory time =
+bytes / B; compute time = flops / F + transcendentals / T. It is optimistic: a division
+or an integer operation counts as one flop, every transcendental (a logarithm, an
+arccosine) as a square root. The binding bound is the update rate at the larger of the
+two times; the fraction is the measured rate over it (`fraction`: memory time from the
+minimal bytes; `fraction_xla_bytes`: from XLA's bytes). The machine is shared: figures
+vary 2-4x with load; ratios within one run are what count.
 
 Usage:
     python benchmarks/solvent_bounds.py [--mpcd-sizes 100000] [--bd-sizes 10000]

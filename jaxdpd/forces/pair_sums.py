@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 
-from jaxdpd.segment import segment_sum_where
+from jaxdpd.scatter import segment_sum_where
 
 
 @dataclass(frozen=True)

@@ -57,7 +57,7 @@ import numpy as np
 
 from jaxdpd import pytree
 from jaxdpd.dyadic import dyadic_sum
-from jaxdpd.segment import segment_sum_where
+from jaxdpd.scatter import segment_sum_where
 
 SPRING_REPULSION_LAWS = ("exponential", "linear")
 

@@ -22,6 +22,7 @@ from jaxdpd.geometry.boxes import make_box
 from jaxdpd.geometry.neighbors import PairList, neighbor_search
 from jaxdpd.geometry.neighbors.cell_list import cell_grid
 from jaxdpd.observables.component import Observable, Setting
+from jaxdpd.scatter import segment_sum_where
 from jaxdpd.validation import SceneError
 
 
@@ -67,8 +68,8 @@ class RadialDistribution:
         bound_box = self.box.bind(box_state)
         geometry = pair_geometry(bound_box, positions, pair_list, self.r_max, half=True)
         shell = jnp.floor(geometry.distance * (self.bins / self.r_max)).astype(jnp.int32)
-        shell = jnp.where(geometry.within, shell, self.bins)
-        counts = jnp.zeros(self.bins + 1, jnp.int32).at[shell].add(1)[: self.bins]
+        ones = geometry.within.astype(jnp.int32)
+        counts = segment_sum_where(ones, shell, geometry.within, self.bins)
         return counts, pair_list
 
     def sample(self, positions, box_state=None) -> None:

@@ -138,7 +138,8 @@ def check_resources(scene, box, available: int | None = None) -> None:
 
 
 def cell_count(scene, box) -> float:
-    """Cells of the neighbour grid of a cell-list scene (a float: inf beyond 1e308)."""
+    """Cells of the neighbour grid of a cell-list scene (a float), capped as the cell
+    list caps them (at most 4 per particle)."""
     from jaxdpd.geometry.neighbors.cell_list import cell_grid
 
     reach = scene.cutoff + scene.neighbors.skin

@@ -69,8 +69,8 @@ from jaxdpd.engine import noise
 from jaxdpd.engine.integrators import thermalized_velocity_verlet
 from jaxdpd.engine.ownership import WHOLE_SYSTEM
 from jaxdpd.forces.pair_sums import pair_geometry
+from jaxdpd.scatter import segment_sum_where
 from jaxdpd.scene_examples import chain_solution_example
-from jaxdpd.segment import segment_sum_where
 from jaxdpd.solvents import component
 from jaxdpd.solvents.groot_warren import velocity_verlet
 from jaxdpd.validation import read_number

@@ -37,7 +37,9 @@ a decomposed run, jaxdpd.decomposition); without it none of this is traced.
 
 Axes with fewer than three cells fall back to a single cell along that axis (every
 particle is a candidate along it, measured by the minimum image in the frame, which
-stays unique because the scene requires every cell height > 2 (r_c + skin)).
+stays unique because the scene requires every cell height > 2 (r_c + skin)).  A
+dilute box gets larger cells, at most 4 per particle (`cell_grid`), so that the grid
+stays O(N) however large the box.
 """
 
 import itertools
@@ -73,7 +75,8 @@ def cell_grid(box, list_cutoff: float, n_particles: int | None = None) -> tuple[
     Given `n_particles`, a dilute box gets fewer, larger cells: the axis with the most
     cells is halved until the grid has at most CELLS_PER_PARTICLE · N cells (27 at
     least), so that the grid's memory and the work per step stay O(N) however large
-    the box (a 600-particle box 10⁷ long would otherwise need 2.5·10⁸ cells). Larger
+    the box (600 particles in a box of 5.85 × 10⁷ × 5.85 would otherwise need
+    2.5·10⁸ cells). Larger
     cells only add candidates that the distance test rejects.
     """
     counts = []
@@ -438,15 +441,17 @@ def cell_list_search(
         skin: Verlet skin ≥ 0.
         absent_rows: rows with non-finite coordinates are absent (module docstring);
             False traces none of that test.
-        density: the number density the dense tier is sized for (default N over the
-            box volume).  A device's view in a decomposed run holds free rows and an
-            empty gap beside its particles, so its row count overstates the density.
+        density: the number density the dense tier and the cell grid's cap (`cell_grid`) are sized
+            for (default N over the box volume). A device's view in a decomposed run holds
+            free rows and an empty gap beside its particles, so its row count overstates the
+            density.
     Returns:
         NeighborSearch with half = True.
     """
     enable_float64()  # rows are packed into uint64 words
     list_cutoff = cutoff + skin
-    n_cells = cell_grid(box, list_cutoff, n_particles)
+    expected = n_particles if density is None else density * box.volume
+    n_cells = cell_grid(box, list_cutoff, math.ceil(expected))
     n_cells_total = math.prod(n_cells)
     cell_size = tuple(length / n for length, n in zip(box.lengths, n_cells, strict=True))
 
@@ -457,7 +462,6 @@ def cell_list_search(
     halo_index = jnp.asarray(halo["index"])
     stencil_deltas = jnp.asarray(halo_deltas(halo, offsets), jnp.int32)
     around_deltas = jnp.asarray(halo_deltas(halo, around), jnp.int32)
-    expected = n_particles if density is None else density * box.volume
     dense_slots = dense_tier(expected, n_cells_total)
 
     def build(positions, box_state, cell_capacity: int, pair_capacity: int) -> PairList:

@@ -6,12 +6,12 @@ import jax.numpy as jnp
 
 def segment_sum_where(values, rows, contributes, n_rows: int):
     """Σ of `values` into `n_rows` rows by `rows`, leaving out the entries where
-    `contributes` is False (whose values must be zero).
+    `contributes` is False. Callers hold zeros there (a pair list's padding, pairs
+    beyond the cutoff), so the sums equal `segment_sum`'s.
 
-    Those entries (a pair list's padding, pairs beyond the cutoff) are sent to row
-    `n_rows`, which `segment_sum` drops. Left at a valid row such as 0 they cost
-    nothing on a CPU, but a GPU serialises the atomic additions they all make to that
-    one address (docs/performance_gpu.md).
+    Those entries are sent to row `n_rows`, which `segment_sum` drops. Left at a valid
+    row such as 0, they all add to that one address, and a GPU serialises those atomic
+    additions (docs/performance_gpu.md).
 
     Args:
         values: (M, ...) entries.

@@ -1,10 +1,10 @@
-"""Per-row sums that leave out non-contributing entries (jaxdpd.segment)."""
+"""Per-row sums that leave out non-contributing entries (jaxdpd.scatter)."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.segment import segment_sum_where
+from jaxdpd.scatter import segment_sum_where
 
 
 def test_only_contributing_entries_are_summed_whatever_their_rows():
