@@ -76,8 +76,7 @@ def cell_grid(box, list_cutoff: float, n_particles: int | None = None) -> tuple[
     cells is halved until the grid has at most CELLS_PER_PARTICLE · N cells (27 at
     least), so that the grid's memory and the work per step stay O(N) however large
     the box (600 particles in a box of 5.85 × 10⁷ × 5.85 would otherwise need
-    2.5·10⁸ cells). Larger
-    cells only add candidates that the distance test rejects.
+    2.5·10⁸ cells). Larger cells only add candidates that the distance test rejects.
     """
     counts = []
     for height in box.cell_heights:
@@ -441,10 +440,10 @@ def cell_list_search(
         skin: Verlet skin ≥ 0.
         absent_rows: rows with non-finite coordinates are absent (module docstring);
             False traces none of that test.
-        density: the number density the dense tier and the cell grid's cap (`cell_grid`) are sized
-            for (default N over the box volume). A device's view in a decomposed run holds
-            free rows and an empty gap beside its particles, so its row count overstates the
-            density.
+        density: the number density the dense tier and the cell grid's cap
+            (`cell_grid`) are sized for (default N over the box volume).  A device's
+            view in a decomposed run holds free rows and an empty gap beside its
+            particles, so its row count overstates the density.
     Returns:
         NeighborSearch with half = True.
     """
