@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from jaxdpd.engine import noise
 from jaxdpd.geometry.boxes import PeriodicBox
 from jaxdpd.solvents.mpcd import transport
-from jaxdpd.solvents.mpcd.cells import bin_particles, collision_grid, grid_shift
+from jaxdpd.solvents.mpcd.cells import bin_particles, cell_ids, collision_grid, grid_shift
 from jaxdpd.solvents.mpcd.collision import (
     maxwell_boltzmann_scaling,
     random_axes,
@@ -87,6 +87,25 @@ def test_grid_shift_and_binning_match_numpy():
         np.testing.assert_allclose(binning.local, local, atol=1e-12)
 
 
+def test_cell_ids_fold_the_far_face_into_cell_zero():
+    """Round-off can give ⌊ξ/a⌋ = n at ξ = L; that cell index is the periodic image of
+    index 0, and every id lies in [0, n_cells)."""
+    n_x, n_y, n_z = GRID.shape
+    index = jnp.asarray(
+        [
+            [0, 0, 0],
+            [n_x, 0, 0],
+            [0, n_y, 0],
+            [0, 0, n_z],
+            [n_x, n_y, n_z],
+            [n_x - 1, n_y - 1, n_z - 1],
+        ],
+        jnp.float64,
+    )
+    ids = np.asarray(cell_ids(GRID, index))
+    np.testing.assert_array_equal(ids, [0, 0, 0, 0, 0, GRID.n_cells - 1])
+
+
 @pytest.mark.parametrize("dtype", [jnp.float64, jnp.float32])
 def test_collision_conserves_mass_momentum_and_energy_of_every_cell(dtype):
     """Eq. 2 conserves each cell's momentum and kinetic energy (rotation of relative
@@ -143,7 +162,7 @@ def test_rotate_matches_scipy_and_random_axes_are_isotropic():
     rng = np.random.default_rng(4)
     vectors = rng.normal(size=(500, 3))
     axes = _axes(noise.step_key(1, 1), 500)
-    rotated = jax.jit(rotate)(jnp.asarray(vectors), axes, math.cos(ALPHA), math.sin(ALPHA))
+    rotated = jax.jit(rotate)(jnp.asarray(vectors).T, axes.T, math.cos(ALPHA), math.sin(ALPHA)).T
     expected = Rotation.from_rotvec(ALPHA * np.asarray(axes)).apply(vectors)
     np.testing.assert_allclose(rotated, expected, atol=1e-13)
     # Uniform on the sphere: <n> = 0 and <n n^T> = I/3; per component σ(n_a) = 1/√3 and
@@ -241,7 +260,7 @@ def test_maxwell_boltzmann_scaling_draws_the_canonical_cell_kinetic_energy():
         1.0,
         0.0,
     )
-    hot = 3 * relative
+    hot = 3 * relative.T
 
     @jax.jit
     def energies(key):

@@ -111,7 +111,7 @@ def test_collisional_stress_of_a_linear_profile_is_eq_6(box_kind):
             math.cos(alpha),
             math.sin(alpha),
         )
-        return collisional_virial(binning.local, rotated - relative, None) / (length**3 * h)
+        return collisional_virial(binning.local, (rotated - relative).T, None) / (length**3 * h)
 
     stress = np.asarray(
         virial(

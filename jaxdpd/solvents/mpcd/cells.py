@@ -101,7 +101,7 @@ class CellBinning:
     """Which cell each particle is in, for one collision (a pytree).
 
     Attributes:
-        cell: (N,) int32 cell id in [0, n_cells).
+        cell: (N,) uint32 cell id in [0, n_cells).
         local: (N, 3) in-cell coordinates in [0, a)³.
         frame_velocities: (N, 3) velocities of the particles as seen in the cell they
             were binned into (the stored velocities in a periodic box; with the
@@ -146,11 +146,28 @@ def bin_particles(grid: CollisionGrid, bound_box, positions, velocities, shift) 
         frame_velocities = velocities + bound_box.streaming_velocity(image)
     index = jnp.floor(shifted / a)
     local = shifted - index * a
-    shape = jnp.asarray(grid.shape, jnp.int32)
-    # Round-off can put a coordinate at exactly L (index n): fold it into cell 0.
-    index = jnp.mod(index.astype(jnp.int32), shape)
-    cell = index[:, 0] + shape[0] * (index[:, 1] + shape[1] * index[:, 2])
-    return CellBinning(cell, local, frame_velocities)
+    return CellBinning(cell_ids(grid, index), local, frame_velocities)
+
+
+def cell_ids(grid: CollisionGrid, index):
+    """Flat cell ids c_x + n_x (c_y + n_y c_z) from the cells along each axis.
+
+    Args:
+        grid: the collision grid.
+        index: (N, 3) ⌊ξ/a⌋ as floats, in [0, n] along each axis: round-off can put a
+            coordinate at exactly L (index n), which is folded into cell 0.
+    Returns:
+        (N,) uint32 ids in [0, n_cells).
+    """
+    shape = jnp.asarray(grid.shape, jnp.uint32)
+    index = index.astype(jnp.uint32)
+    index = jnp.where(index >= shape, index - shape, index)
+    ids = index[:, 0] + shape[0] * (index[:, 1] + shape[1] * index[:, 2])
+    # The remainder keeps every id in range whatever the input, so the collision's
+    # gather may promise in-bounds indices.  It is also an operation XLA:CPU does not
+    # duplicate into consumers: the ids are computed once, not again inside the
+    # scatter and the gather (docs/performance_solvents.md).
+    return ids % jnp.uint32(grid.n_cells)
 
 
 def cell_totals(values, cell, n_cells: int):

@@ -22,7 +22,7 @@ so the common u(corner) drops out and c_i + L ξ_i is what the cell is given.
 
 import jax.numpy as jnp
 
-from jaxdpd.solvents.mpcd.cells import CellBinning
+from jaxdpd.solvents.mpcd.cells import CellBinning, cell_ids
 
 
 def bin_in_lattice(grid, bound_box, positions, velocities, shift) -> CellBinning:
@@ -49,8 +49,4 @@ def bin_in_lattice(grid, bound_box, positions, velocities, shift) -> CellBinning
     offsets = frame - index * a
     local = jnp.stack(bound_box.frame_to_cartesian(tuple(offsets.T)), axis=1)
     frame_velocities = velocities + local @ bound_box.velocity_gradient.T
-    shape = jnp.asarray(grid.shape, jnp.int32)
-    # Round-off can put a coordinate at exactly L (index n): fold it into cell 0.
-    index = jnp.mod(index.astype(jnp.int32), shape)
-    cell = index[:, 0] + shape[0] * (index[:, 1] + shape[1] * index[:, 2])
-    return CellBinning(cell, local, frame_velocities)
+    return CellBinning(cell_ids(grid, index), local, frame_velocities)
