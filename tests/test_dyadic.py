@@ -5,7 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.dyadic import dyadic_sum
+from jaxdpd.dyadic import dyadic_square, dyadic_sum
 
 
 def test_dyadic_sum_is_the_row_sum_of_outer_products():
@@ -34,5 +34,30 @@ def test_float32_dyadic_sum_does_not_accumulate_sequentially():
     exact = velocities.astype(np.float64).T @ velocities.astype(np.float64)
     tensor = jax.jit(dyadic_sum)(jnp.asarray(velocities), jnp.asarray(velocities))
     tensor = np.asarray(tensor, np.float64)
+    u = np.finfo(np.float32).eps / 2
+    assert np.max(np.abs(tensor - exact)) <= 2 * u * n**0.25 * np.max(np.abs(exact))
+
+
+def test_dyadic_square_is_the_symmetric_dyadic_sum():
+    """Small integers, so every sum is exact: Σ w_i a_i ⊗ a_i from its 6 distinct
+    entries equals the full sum of outer products (`dyadic_sum(w a, a)`), with and
+    without weights, over two leading axes."""
+    rng = np.random.default_rng(2)
+    a = rng.integers(-5, 6, size=(4, 7, 3)).astype(np.float32)
+    w = rng.integers(1, 4, size=(4, 7)).astype(np.float32)
+    for weights in (None, w):
+        scale = np.ones((4, 7), np.float32) if weights is None else weights
+        expected = np.einsum("ck,cka,ckb->ab", scale, a, a)
+        square = dyadic_square(jnp.asarray(a), None if weights is None else jnp.asarray(w))
+        np.testing.assert_array_equal(np.asarray(square), expected)
+
+
+def test_float32_dyadic_square_does_not_accumulate_sequentially():
+    """As `test_float32_dyadic_sum_does_not_accumulate_sequentially`, for the kinetic
+    tensor's own form: the blocked sum's bound 2 u N^¼ relative to the largest entry."""
+    n = 100_000
+    velocities = np.random.default_rng(1).standard_normal((n, 3)).astype(np.float32)
+    exact = velocities.astype(np.float64).T @ velocities.astype(np.float64)
+    tensor = np.asarray(jax.jit(dyadic_square)(jnp.asarray(velocities)), np.float64)
     u = np.finfo(np.float32).eps / 2
     assert np.max(np.abs(tensor - exact)) <= 2 * u * n**0.25 * np.max(np.abs(exact))

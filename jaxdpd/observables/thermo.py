@@ -15,7 +15,7 @@ import numpy as np
 
 from jaxdpd.analysis.elongation import elongational_material_functions
 from jaxdpd.analysis.rheology import normal_stress_differences, shear_rheology
-from jaxdpd.dyadic import dyadic_sum
+from jaxdpd.dyadic import dyadic_square
 from jaxdpd.observables.component import (
     Observable,
     long_enough,
@@ -27,9 +27,7 @@ from jaxdpd.observables.component import (
 
 def kinetic_tensor(velocities, masses=None):
     """Σ_i m_i v_ia v_ib, (3, 3); `masses` (N,) or None for unit masses."""
-    if masses is None:
-        return dyadic_sum(velocities, velocities)
-    return dyadic_sum(masses[:, None] * velocities, velocities)
+    return dyadic_square(velocities, masses)
 
 
 def system_kinetic_tensor(ownership, state):
