@@ -1,13 +1,13 @@
 """Dyadic sums as reductions (jaxdpd.dyadic) against the matrix products they replaced.
 
-Every jaxdpd module that uses `dyadic_sum` (kinetic tensor, virials, conformation
-tensors) is given the matrix-product form `a.T @ b` while a step compiles, then the
-library's own; the two compiled chunks of each scene run in alternating rounds in one
-process from the same state.  Scenes: the MPCD fluid of benchmarks/mpcd_throughput.py
-(temperature observed) and the Groot–Warren fluid of benchmarks/dpd_throughput.py
-(temperature and pressure observed, equilibrated by the driver).  Prints the rate of
-each, their ratio, whether the trajectories are bit-identical, and the largest
-difference of the samples relative to their scale.
+Every jaxdpd module that uses `dyadic_sum` or `dyadic_square` (kinetic tensor,
+virials, conformation tensors) is given the matrix-product form `a.T @ b` while a step
+compiles, then the library's own; the two compiled chunks of each scene run in
+alternating rounds in one process from the same state.  Scenes: the MPCD fluid of
+benchmarks/mpcd_throughput.py (temperature observed) and the Groot–Warren fluid of
+benchmarks/dpd_throughput.py (temperature and pressure observed, equilibrated by the
+driver).  Prints the rate of each, their ratio, whether the trajectories are
+bit-identical, and the largest difference of the samples relative to their scale.
 
     python benchmarks/dyadic_sum_ab.py [--mpcd-size 100000] [--dpd-size 24000]
         [--steps 20] [--rounds 8]
@@ -38,14 +38,20 @@ USERS = (
     jaxdpd.forces.bonds,
     jaxdpd.forces.spring_repulsion,
     jaxdpd.observables.domain_chains,
-    jaxdpd.observables.thermo,
     jaxdpd.solvents.mpcd.collision,
 )
+# The kinetic tensor's symmetric form (jaxdpd.dyadic.dyadic_square).
+SQUARE_USERS = (jaxdpd.observables.thermo,)
 
 
 def matrix_product(a, b):
     """Σ_i a_i ⊗ b_i as the product of the transposed rows: the form before dyadic_sum."""
     return a.reshape(-1, a.shape[-1]).T @ b.reshape(-1, b.shape[-1])
+
+
+def matrix_square(a, weights=None):
+    """Σ_i w_i a_i ⊗ a_i in the same matrix-product form."""
+    return matrix_product(a if weights is None else weights[..., None] * a, a)
 
 
 def sample_difference(samples, reference) -> float:
@@ -59,7 +65,9 @@ def sample_difference(samples, reference) -> float:
 
 
 def compare(label: str, scene, state, steps: int, rounds: int) -> None:
-    replacements = [(module, "dyadic_sum", matrix_product) for module in USERS]
+    replacements = [(module, "dyadic_sum", matrix_product) for module in USERS] + [
+        (module, "dyadic_square", matrix_square) for module in SQUARE_USERS
+    ]
     base, state = compiled_chunk(scene, state, steps, replacements)
     this, _ = compiled_chunk(scene, state, steps)
     (base_state, base_samples), (this_state, this_samples) = base(state), this(state)

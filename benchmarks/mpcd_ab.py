@@ -1,8 +1,9 @@
 """MPCD step rate: this tree's collision against a base tree's, alternating in one process.
 
-The base's `jaxdpd/solvents/mpcd/collision.py` is loaded as a separate module (the
-cells and noise it imports are this tree's) and put in place of this tree's SRD
-collision while the base step compiles.  Both run the scene of
+The base's SRD collision, cell binning and kinetic tensor
+(`jaxdpd/solvents/mpcd/collision.py`, `cells.py`, `jaxdpd/observables/thermo.py`) are
+loaded as separate modules (what they import is this tree's) and put in place of this
+tree's while the base step compiles.  Both run the scene of
 benchmarks/mpcd_throughput.py (ρ = 10, α = 130°, h = 0.1, temperature observed) in
 compiled chunks, in alternating rounds; the velocities after one chunk from the same
 state are compared bit for bit.
@@ -19,6 +20,7 @@ import numpy as np
 from _common import alternating_rates, compiled_chunk, module_from_file, ratio_summary
 from mpcd_throughput import solvent_scene
 
+from jaxdpd.observables import thermo as thermo_module
 from jaxdpd.solvents.mpcd import step as mpcd_step_module
 
 
@@ -31,10 +33,17 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=6)
     args = parser.parse_args()
     scene = solvent_scene(args.size, args.precision)
-    base_collision = module_from_file(
-        args.base / "jaxdpd" / "solvents" / "mpcd" / "collision.py", "base_mpcd_collision"
+    base_mpcd = args.base / "jaxdpd" / "solvents" / "mpcd"
+    base_collision = module_from_file(base_mpcd / "collision.py", "base_mpcd_collision")
+    base_cells = module_from_file(base_mpcd / "cells.py", "base_mpcd_cells")
+    base_thermo = module_from_file(
+        args.base / "jaxdpd" / "observables" / "thermo.py", "base_thermo"
     )
-    replacements = [(mpcd_step_module, "srd_collision", base_collision.srd_collision)]
+    replacements = [
+        (mpcd_step_module, "srd_collision", base_collision.srd_collision),
+        (mpcd_step_module, "bin_particles", base_cells.bin_particles),
+        (thermo_module, "kinetic_tensor", base_thermo.kinetic_tensor),
+    ]
     base_chunk, _ = compiled_chunk(scene, None, args.steps, replacements)
     this_chunk, state = compiled_chunk(scene, None, args.steps)
     runs = {"base": base_chunk, "this": this_chunk}
