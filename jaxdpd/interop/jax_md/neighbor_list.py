@@ -60,9 +60,10 @@ def _sparse(pair_list):
 
 
 def _row_counts(pair_list, n):
-    """(N + 1,) partners of each particle (the last entry counts empty slots)."""
+    """(N,) partners of each particle.  Empty slots (index N) fall outside the rows and
+    are dropped, rather than all counted at one address, which a GPU serialises."""
     senders = jnp.concatenate([pair_list.i, pair_list.j])
-    return jnp.zeros(n + 1, jnp.int32).at[senders].add(1)
+    return jax.ops.segment_sum(jnp.ones(senders.shape, jnp.int32), senders, n)
 
 
 def _dense(pair_list, n, width):
@@ -74,10 +75,11 @@ def _dense(pair_list, n, width):
     senders, receivers = senders[order], receivers[order]
     counts = _row_counts(pair_list, n)
     starts = jnp.cumsum(counts) - counts
+    # Empty slots (sender N) read a clamped start; their row N is dropped below.
     rank = jnp.arange(senders.shape[0], dtype=jnp.int32) - starts[senders]
     idx = jnp.full((n, width), n, jnp.int32)
     idx = idx.at[senders, rank].set(receivers.astype(jnp.int32), mode="drop")
-    return idx, jnp.max(counts[:n]) > width
+    return idx, jnp.max(counts) > width
 
 
 def _error(pair_list, row_overflow):
@@ -175,7 +177,7 @@ def neighbor_list(
         pair_list = _padded(
             pair_list, pair_list.capacity + n * extra_capacity, pair_list.cell_capacity
         )
-        widest = int(np.max(np.asarray(_row_counts(pair_list, n))[:n]))
+        widest = int(np.max(np.asarray(_row_counts(pair_list, n))))
         width = min(n - 1, math.ceil(widest * capacity_multiplier) + extra_capacity)
         return pair_list, max(width, 1)
 
