@@ -40,7 +40,7 @@ def test_float32_dyadic_sum_does_not_accumulate_sequentially():
 
 def test_dyadic_square_is_the_symmetric_dyadic_sum():
     """Small integers, so every sum is exact: Σ w_i a_i ⊗ a_i from its 6 distinct
-    entries equals the full sum of outer products (`dyadic_sum(w a, a)`), with and
+    entries equals the full sum of weighted outer products (NumPy's einsum), with and
     without weights, over two leading axes."""
     rng = np.random.default_rng(2)
     a = rng.integers(-5, 6, size=(4, 7, 3)).astype(np.float32)

@@ -98,12 +98,14 @@ def test_cell_ids_fold_the_far_face_into_cell_zero():
             [0, n_y, 0],
             [0, 0, n_z],
             [n_x, n_y, n_z],
+            [1, n_y, 2],
             [n_x - 1, n_y - 1, n_z - 1],
         ],
         jnp.float64,
     )
     ids = np.asarray(cell_ids(GRID, index))
-    np.testing.assert_array_equal(ids, [0, 0, 0, 0, 0, GRID.n_cells - 1])
+    expected = [0, 0, 0, 0, 0, 1 + n_x * n_y * 2, GRID.n_cells - 1]
+    np.testing.assert_array_equal(ids, expected)
 
 
 @pytest.mark.parametrize("dtype", [jnp.float64, jnp.float32])

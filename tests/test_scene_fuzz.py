@@ -120,7 +120,8 @@ def check_scene(data: dict, seconds: int, initial_state: bool) -> None:
     """Build the scene (and draw its initial state) in a worker thread, waiting at
     most `seconds`.  A thread rather than a SIGALRM handler, whose exception lands
     wherever the main thread is, possibly inside JAX's compiler or its cache write,
-    and may leave them in a state that a later test trips over."""
+    and may leave them in a state that a later test trips over.  A build that does
+    not finish keeps its (daemon) thread after the test has failed."""
     outcome = {}
 
     def attempt():
@@ -128,7 +129,7 @@ def check_scene(data: dict, seconds: int, initial_state: bool) -> None:
             simulation = build(Scene.from_dict(data))
             if initial_state:
                 simulation.init_fn()
-        except Exception as error:  # handed to the test's thread below
+        except BaseException as error:  # handed to the test's thread below
             outcome["error"] = error
 
     worker = threading.Thread(target=attempt, daemon=True)

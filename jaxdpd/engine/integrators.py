@@ -11,7 +11,7 @@ list overflow).
 import jax
 import jax.numpy as jnp
 
-from jaxdpd.dyadic import dyadic_sum
+from jaxdpd.dyadic import dyadic_square, dyadic_sum
 from jaxdpd.engine import errors, noise
 from jaxdpd.geometry import flows
 
@@ -275,8 +275,7 @@ def free_flight_stress(gradient, velocities, weights, duration):
     Returns:
         (3, 3) tensor, added to the kinetic one as the virial part "streaming".
     """
-    weighted = weights[:, None] * velocities
-    dyad = dyadic_sum(velocities, weighted)  # Σ w c c^T
+    dyad = dyadic_square(velocities, weights)  # Σ w c c^T
     drifted = gradient @ dyad
     return -0.5 * duration * (drifted + drifted.T) + (duration**2 / 3) * drifted @ gradient.T
 

@@ -157,7 +157,8 @@ def cell_ids(grid: CollisionGrid, index):
         index: (N, 3) ⌊ξ/a⌋ as floats, in [0, n] along each axis: round-off can put a
             coordinate at exactly L (index n), which is folded into cell 0.
     Returns:
-        (N,) uint32 ids in [0, n_cells).
+        (N,) uint32 ids in [0, n_cells).  An index outside [0, n] (not made by the
+        binnings) still gives an id in range, but not its periodic image's.
     """
     shape = jnp.asarray(grid.shape, jnp.uint32)
     index = index.astype(jnp.uint32)

@@ -66,9 +66,8 @@ def rotate(vectors, axes, cos_angle, sin_angle):
     Returns:
         (3, ...) rotated vectors (lengths preserved to round-off).
     """
-    # Components first (structure of arrays): on XLA:CPU the gather before it and the
-    # rotation run about 2x faster than with a trailing axis of length 3
-    # (docs/performance_solvents.md).
+    # Components first (structure of arrays): on XLA:CPU the rotation is faster than
+    # with a trailing axis of length 3 (docs/performance_solvents.md).
     wx, wy, wz = vectors
     nx, ny, nz = axes
     along = (nx * wx + ny * wy + nz * wz) * (1 - cos_angle)
@@ -89,7 +88,8 @@ def srd_relative_velocities(
     Args:
         frame_velocities: (N, 3) velocities as binned (jaxdpd.solvents.mpcd.cells.CellBinning).
         masses: (N,) masses, or None for unit masses.
-        cell: (N,) int cell ids.
+        cell: (N,) int cell ids, each in [0, n_cells) (the gather relies on it:
+            jaxdpd.solvents.mpcd.cells.cell_ids).
         n_cells: number of cells.
         key: uint32 collision key (axes per cell id).
         cos_angle, sin_angle: cos α, sin α.
