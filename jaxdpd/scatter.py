@@ -1,4 +1,5 @@
-"""Per-row sums that leave out the entries that add nothing."""
+"""Scatters that leave out the entries that add nothing: per-row sums, and the
+indices of a mask's True entries."""
 
 import jax
 import jax.numpy as jnp
@@ -22,3 +23,19 @@ def segment_sum_where(values, rows, contributes, n_rows: int):
         (n_rows, ...) sums.
     """
     return jax.ops.segment_sum(values, jnp.where(contributes, rows, n_rows), n_rows)
+
+
+def nonzero_indices(mask, size: int, fill_value: int):
+    """The indices of the True entries of a 1-D `mask`, in increasing order, the first
+    `size` of them, padded with `fill_value`: `jnp.nonzero(mask, size=size,
+    fill_value=fill_value)[0]`, the same values and dtype.
+
+    `jnp.nonzero` counts with a scatter-add of ones at every entry's running count, so
+    all the unselected entries between two selected ones add to one address, which a
+    GPU serialises.  Here each selected entry writes its own index at its rank; the
+    other entries, and ranks beyond `size`, are dropped.
+    """
+    indices = jnp.arange(mask.shape[0])
+    rank = jnp.cumsum(mask, dtype=indices.dtype) - 1
+    target = jnp.where(mask, rank, size)
+    return jnp.full(size, fill_value, indices.dtype).at[target].set(indices, mode="drop")

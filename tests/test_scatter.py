@@ -1,10 +1,11 @@
-"""Per-row sums that leave out non-contributing entries (jaxdpd.scatter)."""
+"""Scatters that leave out the entries that add nothing (jaxdpd.scatter): per-row sums
+and the indices of a mask's True entries."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdpd.scatter import segment_sum_where
+from jaxdpd.scatter import nonzero_indices, segment_sum_where
 
 
 def test_only_contributing_entries_are_summed_whatever_their_rows():
@@ -22,3 +23,17 @@ def test_only_contributing_entries_are_summed_whatever_their_rows():
         jnp.asarray(values), jnp.asarray(rows), jnp.asarray(contributes), n_rows
     )
     np.testing.assert_array_equal(np.asarray(summed), expected)
+
+
+def test_nonzero_indices_are_jnp_nonzero_in_values_and_dtype():
+    """Against `jnp.nonzero(mask, size=, fill_value=)` (the NumPy-defined reference):
+    sparse, half-full, empty and full masks, with capacities below and above the
+    count, under jit."""
+    rng = np.random.default_rng(5)
+    cases = [(1000, 0.01, 20), (1000, 0.5, 20), (1000, 0.0, 5), (1000, 1.0, 1200), (7, 0.5, 3)]
+    for n, fraction, size in cases:
+        mask = jnp.asarray(rng.random(n) < fraction)
+        expected = jnp.nonzero(mask, size=size, fill_value=n)[0]
+        found = jax.jit(nonzero_indices, static_argnums=(1, 2))(mask, size, n)
+        assert found.dtype == expected.dtype
+        np.testing.assert_array_equal(np.asarray(found), np.asarray(expected))

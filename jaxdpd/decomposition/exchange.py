@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxdpd import pytree
+from jaxdpd.scatter import nonzero_indices
 
 DOMAINS = "domains"  # the mesh axis of the slabs
 
@@ -93,7 +94,7 @@ def pick(mask, capacity: int):
     """(the first `capacity` row indices where `mask` holds, padded with the row
     count; int32 number of rows where it holds)."""
     count = jnp.sum(mask, dtype=jnp.int32)
-    return jnp.nonzero(mask, size=capacity, fill_value=mask.shape[0])[0], count
+    return nonzero_indices(mask, capacity, mask.shape[0]), count
 
 
 def shift(rows, towards: int, domains: int):
@@ -114,7 +115,7 @@ def admit(rows: Rows, arrivals: Rows):
     capacity = rows.ids.shape[0]
     count = jnp.sum(arriving, dtype=jnp.int32)
     packed, _ = select(arrivals, arriving, arrivals.ids.shape[0])
-    slots = jnp.nonzero(free, size=arrivals.ids.shape[0], fill_value=capacity)[0]
+    slots = nonzero_indices(free, arrivals.ids.shape[0], capacity)
     # The k-th arrival goes to the k-th free row; free arrival rows land in free
     # rows (no change) or, past the free rows, nowhere.
     admitted = jax.tree.map(lambda kept, new: kept.at[slots].set(new, mode="drop"), rows, packed)

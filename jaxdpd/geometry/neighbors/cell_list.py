@@ -51,6 +51,7 @@ import numpy as np
 
 from jaxdpd.geometry.neighbors.pair_list import NeighborSearch, PairList, needs_rebuild
 from jaxdpd.precision import enable_float64
+from jaxdpd.scatter import nonzero_indices
 
 LANE_BITS = 32  # candidate slots per distance-test lane (uint32)
 WORD_BITS = 64  # bits per packed row word (uint64)
@@ -346,7 +347,7 @@ def _crowded_rows(bound_box, frame, members, slot, around_cells, list_cutoff, de
     cell_capacity = members.shape[0]
     is_crowded = (slot >= dense) & (slot < cell_capacity)
     room = crowd_capacity(n, cell_capacity, dense)
-    crowded = jnp.nonzero(is_crowded, size=room, fill_value=n)[0].astype(jnp.int32)
+    crowded = nonzero_indices(is_crowded, room, n).astype(jnp.int32)
     count = jnp.sum(is_crowded, dtype=jnp.int32)
 
     def gathered():
