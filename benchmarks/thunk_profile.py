@@ -13,7 +13,8 @@ fusions over threads, so an operation's record also holds the time it waited for
 a thread: a fusion can look costly while the step would not miss it.  Profile
 on one core (`taskset -c 0 python ...`) to see what each operation computes.
 
-Usage (the DPD fluid's step at N = 3000, 100 steps; prints the top operations):
+Usage (the DPD fluid's step at N = 3000, 100 steps; prints the top operations;
+`--hlo PATH` also writes the profiled chunk's optimised HLO, to look the names up):
     python benchmarks/thunk_profile.py --size 3000 --steps 100 --top 30
     python benchmarks/thunk_profile.py --size 1000000 --steps 20    # on a GPU
 """
@@ -77,6 +78,7 @@ def main():
     parser.add_argument("--size", type=int, default=3000)
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--top", type=int, default=30)
+    parser.add_argument("--hlo", type=Path, default=None, help="write the optimised HLO")
     args = parser.parse_args()
 
     from dpd_throughput import equilibrated_fluid
@@ -88,6 +90,9 @@ def main():
     totals = thunk_times(lambda s: driver.run(simulation, s, args.steps, args.steps), state)
     print(f"N = {args.size}:", end=" ")
     report(totals, args.steps, args.top)
+    if args.hlo:
+        chunk = driver._scan_chunk.lower(simulation.step_fn, state, args.steps).compile()
+        args.hlo.write_text(chunk.as_text())
 
 
 if __name__ == "__main__":
