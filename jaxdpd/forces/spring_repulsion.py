@@ -56,7 +56,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdpd import pytree
-from jaxdpd.dyadic import dyadic_sum
+from jaxdpd.dyadic import dyadic_square
 from jaxdpd.scatter import segment_sum_where
 
 SPRING_REPULSION_LAWS = ("exponential", "linear")
@@ -382,7 +382,7 @@ def segment_virial(geometry: SpringPairGeometry, magnitude):
     distance = approach.distance
     positive = distance > 0
     scale = jnp.where(positive, magnitude / jnp.where(positive, distance, 1), 0)
-    return dyadic_sum(approach.vector, scale[:, None] * approach.vector)
+    return dyadic_square(approach.vector, scale)
 
 
 def pair_magnitudes(geometry: SpringPairGeometry, law: SpringRepulsionLaw):

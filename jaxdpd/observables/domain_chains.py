@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 
-from jaxdpd.dyadic import dyadic_sum
+from jaxdpd.dyadic import dyadic_square
 
 
 @dataclass(frozen=True)
@@ -126,7 +126,7 @@ def domain_conformation_samples(bound_box, state, ownership, block, rows, law, c
         {
             "centres": _per_chain(offsets, chain, n_chains),
             "ends": _per_chain(ends, chain, n_chains),
-            "bond_conformation": dyadic_sum(rows.springs, rows.springs),
+            "bond_conformation": dyadic_square(rows.springs),
             "wrong": jnp.sum(wrong, dtype=jnp.int32),
         }
     )
@@ -135,7 +135,7 @@ def domain_conformation_samples(bound_box, state, ownership, block, rows, law, c
     spread = _mask(offsets - centres[index], counted)
     size = jnp.where(sums["wrong"] == 0, 1, jnp.nan).astype(positions.dtype)
     bond_conformation = sums["bond_conformation"] / (n_chains * (beads - 1))
-    end_to_end = dyadic_sum(ends, ends) * size / n_chains
+    end_to_end = dyadic_square(ends) * size / n_chains
     samples = {
         f"{name}/bond_length_sq": jnp.trace(bond_conformation),
         f"{name}/bond_conformation": bond_conformation,
