@@ -2,7 +2,8 @@
 
 The base's SRD collision, cell binning and kinetic tensor
 (`jaxdpd/solvents/mpcd/collision.py`, `cells.py`, `jaxdpd/observables/thermo.py`) are
-loaded as separate modules (what they import is this tree's) and put in place of this
+loaded as separate modules (what they import is this tree's, except the collision's
+sine and cosine, `jaxdpd/trigonometry.py`, also the base's) and put in place of this
 tree's while the base step compiles.  Both run the scene of
 benchmarks/mpcd_throughput.py (ρ = 10, α = 130°, h = 0.1, temperature observed) in
 compiled chunks, in alternating rounds; the velocities after one chunk from the same
@@ -36,6 +37,10 @@ def main() -> None:
     base_mpcd = args.base / "jaxdpd" / "solvents" / "mpcd"
     base_collision = module_from_file(base_mpcd / "collision.py", "base_mpcd_collision")
     base_cells = module_from_file(base_mpcd / "cells.py", "base_mpcd_cells")
+    base_trigonometry = module_from_file(
+        args.base / "jaxdpd" / "trigonometry.py", "base_trigonometry"
+    )
+    base_collision.sincos_turns = base_trigonometry.sincos_turns
     base_thermo = module_from_file(
         args.base / "jaxdpd" / "observables" / "thermo.py", "base_thermo"
     )

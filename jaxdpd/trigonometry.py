@@ -7,6 +7,7 @@ largest cost of the transverse-current observable and of the MPCD rotation axes.
 
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -32,9 +33,11 @@ def sincos_turns(turns):
     angle = (quarter_turns - quadrant) * (jnp.pi / 2)  # φ in [−π/4, π/4]
     sine, cosine = sincos_small(angle)
     # sin(φ + qπ/2), cos(φ + qπ/2) for q mod 4 = 0, 1, 2, 3.
+    # lax.select_n picks by the index itself (jnp.select would find the first true
+    # condition with a reduction).
     q = jnp.mod(quadrant.astype(jnp.int32), 4)
-    rotated_sine = jnp.select([q == 0, q == 1, q == 2], [sine, cosine, -sine], -cosine)
-    rotated_cosine = jnp.select([q == 0, q == 1, q == 2], [cosine, -sine, -cosine], sine)
+    rotated_sine = jax.lax.select_n(q, sine, cosine, -sine, -cosine)
+    rotated_cosine = jax.lax.select_n(q, cosine, -sine, -cosine, sine)
     return rotated_sine, rotated_cosine
 
 
