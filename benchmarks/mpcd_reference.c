@@ -12,7 +12,8 @@
  * Written for the compiler to vectorise every loop but the scatter (checked with
  * gcc 12 -O3 -march=native -fno-trapping-math -fno-math-errno -fopt-info-vec): flat
  * loops, selects instead of branches, the axes computed components first before they
- * join the per-cell table, and no fmaxf (gcc 12 does not vectorise it).
+ * join the per-cell table, and no fmaxf (gcc 12 does not vectorise it).  The scratch
+ * tables are allocated in every call, which counts their page faults against C.
  */
 #include <math.h>
 #include <stdint.h>
@@ -23,7 +24,8 @@
 
 /* Seconds spent in each of the step's seven loops, as seen by thread 0 (its share of
  * the loop and its wait at the loop's closing barrier), summed over calls: wrap,
- * cell ids, scatter, table sum, axes, per-cell table, rotation. */
+ * cell ids, scatter, table sum, axes, per-cell table, rotation.  The zeroing of the
+ * tables and the start of the parallel region are in none of them. */
 double mpcd_loop_seconds[7];
 
 static inline uint32_t mix32(uint32_t h) {
@@ -67,8 +69,8 @@ int mpcd_steps(int n, int edge, float *positions, float *velocities, int32_t *im
     const int n_cells = edge * edge * edge;
     const float length = (float)edge;
     const float inverse_length = 1.0f / length;
-    const int threads = omp_get_max_threads();
-    float *tables = allocate((size_t)4 * n_cells * threads, sizeof(float));
+    /* One scatter table per thread: as many as a parallel region may start. */
+    float *tables = allocate((size_t)4 * n_cells * omp_get_max_threads(), sizeof(float));
     float *per_cell = allocate((size_t)8 * n_cells, sizeof(float));
     float *axes = allocate((size_t)3 * n_cells, sizeof(float));
     int32_t *cell = allocate((size_t)n, sizeof(int32_t));
@@ -85,6 +87,7 @@ int mpcd_steps(int n, int edge, float *positions, float *velocities, int32_t *im
 #pragma omp parallel
         {
             double clock[8];
+            const int team = omp_get_num_threads(); /* may be fewer than the tables */
             float *table = tables + (size_t)4 * n_cells * omp_get_thread_num();
             memset(table, 0, sizeof(float) * 4 * (size_t)n_cells);
             clock[0] = omp_get_wtime();
@@ -104,14 +107,18 @@ int mpcd_steps(int n, int edge, float *positions, float *velocities, int32_t *im
                 float sx = positions[3 * i] - shift[0];
                 float sy = positions[3 * i + 1] - shift[1];
                 float sz = positions[3 * i + 2] - shift[2];
-                int cx = (int)(sx < 0 ? sx + length : sx);
-                int cy = (int)(sy < 0 ? sy + length : sy);
-                int cz = (int)(sz < 0 ? sz + length : sz);
+                sx = sx < 0 ? sx + length : sx;
+                sy = sy < 0 ? sy + length : sy;
+                sz = sz < 0 ? sz + length : sz;
+                /* In [0, L] for finite input; anything else (a NaN) goes to cell 0. */
+                sx = sx >= 0 && sx <= length ? sx : 0;
+                sy = sy >= 0 && sy <= length ? sy : 0;
+                sz = sz >= 0 && sz <= length ? sz : 0;
+                int cx = (int)sx, cy = (int)sy, cz = (int)sz;
                 cx = cx >= edge ? cx - edge : cx;
                 cy = cy >= edge ? cy - edge : cy;
                 cz = cz >= edge ? cz - edge : cz;
-                unsigned id = (unsigned)(cx + edge * (cy + edge * cz));
-                cell[i] = id < (unsigned)n_cells ? (int)id : 0; /* a NaN stays in bounds */
+                cell[i] = cx + edge * (cy + edge * cz);
             }
             clock[2] = omp_get_wtime();
 #pragma omp for schedule(static)
@@ -121,11 +128,10 @@ int mpcd_steps(int n, int edge, float *positions, float *velocities, int32_t *im
                 slot[0] += 1.0f, slot[1] += v[0], slot[2] += v[1], slot[3] += v[2];
             }
             clock[3] = omp_get_wtime();
+            for (int t = 1; t < team; ++t) {
 #pragma omp for schedule(static)
-            for (int j = 0; j < 4 * n_cells; ++j) {
-                float total = tables[j];
-                for (int t = 1; t < threads; ++t) total += tables[(size_t)4 * n_cells * t + j];
-                tables[j] = total;
+                for (int j = 0; j < 4 * n_cells; ++j)
+                    tables[j] += tables[(size_t)4 * n_cells * t + j];
             }
             clock[4] = omp_get_wtime();
 #pragma omp for simd schedule(simd : static)
