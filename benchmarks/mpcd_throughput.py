@@ -95,7 +95,7 @@ def measure(n: int, precision: str, steps: int) -> list[dict]:
     rng = np.random.default_rng(0)
     jax_seconds, numpy_seconds = [], []
     for _ in range(3):  # alternate, so that load changes on a shared machine hit both
-        # The first chunk after the NumPy step's runs up to 1.5x slower; time the next.
+        # A chunk right after another program's runs slower: time the one after it.
         state, _ = jax.block_until_ready(compiled(state))
         (state, samples), seconds = timed(compiled, state)
         jax_seconds.append(seconds)

@@ -36,8 +36,9 @@ from _common import best_of, copy_bandwidth, print_table, write_json
 import jaxdpd
 
 CHAINS, LINKS, REPEATS = 8, 8, 50
-# Chunks timed per method; the rate is the best.  The first few calls after another
-# benchmark's are slower (an MPCD chunk by up to 1.5x), so three were too few.
+# Chunks timed per method; the rate is the best.  Chunks run right after another
+# program's run slower (an MPCD chunk after a C one by up to 1.7x,
+# docs/performance_solvents.md): ten give a quiet chunk more chances than three.
 RATE_REPEATS = 10
 
 
