@@ -42,14 +42,15 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from _common import compiled_chunk, print_table, write_json
+from _common import compiled_chunk, copy_bandwidth, print_table, write_json
 from mpcd_throughput import ANGLE, COLLISION_TIME, solvent_scene
-from solvent_bounds import bound_row, copy_bandwidth, cost_per_update, machine_rates
+from solvent_bounds import bound_row, cost_per_update, machine_rates
 
 from jaxdpd.engine.build import build
 
 SOURCE = Path(__file__).with_name("mpcd_reference.c")
 LOOPS = ("wrap", "cell ids", "scatter", "table sum", "axes", "per-cell table", "rotation")
+U = float(np.finfo(np.float32).eps)  # float32 round-off unit of the checks
 
 
 def compile_reference(directory: Path):
@@ -79,6 +80,24 @@ def compile_reference(directory: Path):
     return function, (ctypes.c_double * len(LOOPS)).in_dll(compiled, "mpcd_loop_seconds")
 
 
+def reference_arguments(scene, state) -> tuple:
+    """The C step's leading arguments for `state`: sizes, writable float32/int32 copies
+    of positions, velocities and image counters (the C step updates them in place), h,
+    cos α, sin α and the seed."""
+    angle = math.radians(ANGLE)
+    return (
+        scene.n_particles,
+        round(scene.box.lengths[0]),
+        np.array(state.positions, np.float32),
+        np.array(state.velocities, np.float32),
+        np.array(state.image, np.int32),
+        COLLISION_TIME,
+        math.cos(angle),
+        math.sin(angle),
+        int(state.seed),
+    )
+
+
 def conserved(velocities) -> tuple[np.ndarray, float]:
     """(total momentum, twice the kinetic energy) in float64, unit masses."""
     v = np.asarray(velocities, np.float64)
@@ -95,9 +114,8 @@ def check_conservation(code: str, before, after, steps: int) -> None:
     (measured drifts over 600 steps: 8 and 20 times below them).
     """
     (p0, e0), (p1, e1) = before, after
-    u = float(np.finfo(np.float32).eps)
-    momentum_ok = np.max(np.abs(p1 - p0)) <= 10 * u * math.sqrt(steps * e0)
-    energy_ok = abs(e1 - e0) <= 10 * u * steps * e0
+    momentum_ok = np.max(np.abs(p1 - p0)) <= 10 * U * math.sqrt(steps * e0)
+    energy_ok = abs(e1 - e0) <= 10 * U * steps * e0
     if not (momentum_ok and energy_ok):  # also when any of them is NaN
         raise RuntimeError(f"{code}: momentum or energy not conserved: {p0}→{p1}, {e0}→{e1}")
 
@@ -114,28 +132,22 @@ def check_same_step(scene, state, reference) -> float:
     """
     one_step, _ = compiled_chunk(scene, state, 1)
     after, samples = one_step(state)
-    positions = np.array(state.positions, np.float32)
-    velocities = np.array(state.velocities, np.float32)
-    image = np.array(state.image, np.int32)
+    arguments = reference_arguments(scene, state)
+    positions, velocities, image = arguments[2:5]
     kinetic = np.zeros((1, 6))
-    angle = math.radians(ANGLE)
-    status = reference(scene.n_particles, round(scene.box.lengths[0]), positions,
-                       velocities, image, COLLISION_TIME, math.cos(angle),
-                       math.sin(angle), int(state.seed), int(state.step), 1,
-                       kinetic)  # fmt: skip
+    status = reference(*arguments, int(state.step), 1, kinetic)
     difference = float(np.max(np.abs(np.asarray(after.velocities) - velocities)))
     moved = float(np.max(np.abs(np.asarray(after.positions) - positions)))
     jax_kinetic = np.asarray(samples["kinetic"][-1], np.float64)
     c_kinetic = kinetic[0][[[0, 3, 4], [3, 1, 5], [4, 5, 2]]]
     scale = np.max(np.abs(jax_kinetic))
     kinetic_error = float(np.max(np.abs(c_kinetic - jax_kinetic)) / scale)
-    u = float(np.finfo(np.float32).eps)
     agree = (
         status == 0
         and difference < 1e-4
         and moved < 1e-4
         and np.array_equal(np.asarray(after.image), image)
-        and kinetic_error < 2 * math.sqrt(scene.n_particles) * u
+        and kinetic_error < 2 * math.sqrt(scene.n_particles) * U
     )
     if not agree:
         raise RuntimeError(
@@ -149,18 +161,13 @@ def check_same_step(scene, state, reference) -> float:
 def measure(n: int, steps: int, rounds: int, compiled, rates: dict) -> list[dict]:
     reference, loop_seconds = compiled
     scene = solvent_scene(n, "float32")
-    edge = round(scene.box.lengths[0])
     chunk, state = compiled_chunk(scene, None, steps)
     state, _ = chunk(state)
     difference = check_same_step(scene, state, reference)
     count = scene.n_particles
-    positions = np.array(state.positions, np.float32)
-    velocities = np.array(state.velocities, np.float32)
-    image = np.array(state.image, np.int32)
+    arguments = reference_arguments(scene, state)
+    velocities = arguments[3]
     kinetic = np.zeros((steps, 6))
-    angle = math.radians(ANGLE)
-    arguments = (count, edge, positions, velocities, image, COLLISION_TIME,
-                 math.cos(angle), math.sin(angle), int(state.seed))  # fmt: skip
     start = conserved(velocities)
     jax_start = conserved(state.velocities)
     progress = {"state": state, "samples": None, "first": int(state.step)}
@@ -184,15 +191,15 @@ def measure(n: int, steps: int, rounds: int, compiled, rates: dict) -> list[dict
             run()
             seconds[code].append(time.perf_counter() - begin)
     state, samples = progress["state"], progress["samples"]
+    steps_run = 2 * rounds * steps  # by each code: a warm and a timed chunk per round
     loop_ns = {
-        name: 1e9 * seconds_spent / (2 * rounds * steps * count)
+        name: 1e9 * seconds_spent / (steps_run * count)
         for name, seconds_spent in zip(LOOPS, loop_seconds, strict=True)
     }
     if int(state.flags):
         raise RuntimeError(f"jaxdpd run flagged errors {int(state.flags)}")
-    total = 2 * steps * rounds
-    check_conservation("jaxdpd", jax_start, conserved(state.velocities), total)
-    check_conservation("C reference", start, conserved(velocities), total)
+    check_conservation("jaxdpd", jax_start, conserved(state.velocities), steps_run)
+    check_conservation("C reference", start, conserved(velocities), steps_run)
     cost = cost_per_update(jax.jit(build(scene).step_fn).lower(state).compile(), count)
     machine = {"bandwidth": copy_bandwidth((count, 6), jnp.float32, steps), **rates}
     temperatures = {
